@@ -1,0 +1,137 @@
+#include "core/camera.h"
+
+#include <cmath>
+#include <sstream>
+
+namespace ieslam {
+namespace {
+
+bool Fail(std::string* why, const std::string& message) {
+  if (why != nullptr) *why = message;
+  return false;
+}
+
+bool Finite(const PinholeCamera& c) {
+  bool finite = std::isfinite(c.fx) && std::isfinite(c.fy) && std::isfinite(c.cx) &&
+                std::isfinite(c.cy);
+  for (double d : c.distortion) finite = finite && std::isfinite(d);
+  return finite;
+}
+
+}  // namespace
+
+bool PinholeCamera::Check(std::string* why) const {
+  std::ostringstream s;
+  if (width <= 0 || height <= 0) {
+    s << "image size must be positive, got " << width << "x" << height;
+    return Fail(why, s.str());
+  }
+  if (!Finite(*this)) return Fail(why, "intrinsics or distortion contain NaN or inf");
+  if (fx <= 0.0 || fy <= 0.0) {
+    s << "focal lengths must be positive, got fx=" << fx << " fy=" << fy;
+    return Fail(why, s.str());
+  }
+  return true;
+}
+
+bool PinholeCamera::HasDistortion() const {
+  for (double d : distortion) {
+    if (d != 0.0) return true;
+  }
+  return false;
+}
+
+Eigen::Matrix3d PinholeCamera::K() const {
+  Eigen::Matrix3d K;
+  K << fx, 0.0, cx, 0.0, fy, cy, 0.0, 0.0, 1.0;
+  return K;
+}
+
+Eigen::Vector2d PinholeCamera::Distort(const Eigen::Vector2d& n) const {
+  const auto& [k1, k2, p1, p2, k3] = distortion;
+  const double x = n.x(), y = n.y();
+  const double r2 = x * x + y * y;
+  const double radial = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3));
+  return {x * radial + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x),
+          y * radial + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y};
+}
+
+Eigen::Vector2d PinholeCamera::Undistort(const Eigen::Vector2d& distorted) const {
+  if (!HasDistortion()) return distorted;
+  Eigen::Vector2d n = distorted;
+  for (int i = 0; i < 100; ++i) {
+    const Eigen::Vector2d step = distorted - Distort(n);
+    n += step;
+    if (step.squaredNorm() < 1e-28) break;
+  }
+  return n;
+}
+
+Eigen::Vector2d PinholeCamera::Project(const Eigen::Vector3d& p_c) const {
+  Eigen::Vector2d n(p_c.x() / p_c.z(), p_c.y() / p_c.z());
+  if (HasDistortion()) n = Distort(n);
+  return {fx * n.x() + cx, fy * n.y() + cy};
+}
+
+Eigen::Vector3d PinholeCamera::Unproject(const Eigen::Vector2d& pixel) const {
+  const Eigen::Vector2d n =
+      Undistort(Eigen::Vector2d((pixel.x() - cx) / fx, (pixel.y() - cy) / fy));
+  return {n.x(), n.y(), 1.0};
+}
+
+bool PinholeCamera::InImage(const Eigen::Vector2d& pixel, double border) const {
+  return pixel.x() >= -0.5 + border && pixel.y() >= -0.5 + border &&
+         pixel.x() < width - 0.5 - border && pixel.y() < height - 0.5 - border;
+}
+
+bool RangeImager::Check(std::string* why) const {
+  std::string camera_why;
+  if (!camera.Check(&camera_why)) return Fail(why, "range imager: " + camera_why);
+  if (!(depth_scale > 0.0) || !std::isfinite(depth_scale)) {
+    return Fail(why, "range imager: depth_scale must be positive and finite, got " +
+                         std::to_string(depth_scale));
+  }
+  if (!(min_range_m >= 0.0) || !(max_range_m > min_range_m) || !std::isfinite(max_range_m)) {
+    return Fail(why, "range imager: need 0 <= min_range < max_range, got " +
+                         std::to_string(min_range_m) + ", " + std::to_string(max_range_m));
+  }
+  if (!std::isfinite(noise.a) || !std::isfinite(noise.b) || !std::isfinite(noise.c) ||
+      noise.a < 0.0 || noise.b < 0.0 || noise.c < 0.0 || noise.Sigma(max_range_m) <= 0.0) {
+    return Fail(why, "range imager: noise coefficients must be finite, non-negative and not all 0");
+  }
+  return true;
+}
+
+double RangeImager::RawToMetres(int raw) const {
+  for (int invalid : invalid_values) {
+    if (raw == invalid) return 0.0;
+  }
+  const double metres = raw * depth_scale;
+  return (metres >= min_range_m && metres <= max_range_m) ? metres : 0.0;
+}
+
+Eigen::Vector3d RangeImager::PixelToPoint(const Eigen::Vector2d& pixel, double value_m) const {
+  const Eigen::Vector3d ray = camera.Unproject(pixel);
+  return depth_kind == DepthKind::kZ ? Eigen::Vector3d(ray * value_m)
+                                     : Eigen::Vector3d(ray.normalized() * value_m);
+}
+
+bool Rig::Check(std::string* why) const {
+  std::string part;
+  if (!colour.Check(&part)) return Fail(why, "colour camera: " + part);
+  if (!range.Check(&part)) return Fail(why, part);
+  if (!T_colour_range.matrix().allFinite()) return Fail(why, "extrinsics contain NaN or inf");
+  const Eigen::Matrix3d R = T_colour_range.linear();
+  if ((R.transpose() * R - Eigen::Matrix3d::Identity()).norm() > 1e-6 || R.determinant() < 0.0) {
+    return Fail(why, "extrinsic rotation is not a rotation matrix");
+  }
+  if (!(pixel_sigma > 0.0) || !std::isfinite(pixel_sigma)) {
+    return Fail(why, "pixel_sigma must be positive, got " + std::to_string(pixel_sigma));
+  }
+  if (registered && (colour.width != range.camera.width || colour.height != range.camera.height)) {
+    return Fail(why, "registered rig needs equal colour and range resolutions");
+  }
+  return true;
+}
+
+}  // namespace ieslam

@@ -1,0 +1,91 @@
+// Sensor models: the colour camera, the range imager, and the rig that holds both.
+//
+// The paper's package is a colour camera next to a time-of-flight range imager, each with
+// its own intrinsics, and a calibrated rigid transform between them. A Kinect-style RGB-D
+// camera whose depth is registered to colour is the special case of identity extrinsics
+// and shared intrinsics (Rig::registered).
+#pragma once
+
+#include <array>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+namespace ieslam {
+
+// Pinhole camera with OpenCV's 5-parameter distortion (k1, k2, p1, p2, k3).
+// Camera frame: x right, y down, z forward (optical axis).
+struct PinholeCamera {
+  int width = 0;
+  int height = 0;
+  double fx = 0.0;
+  double fy = 0.0;
+  double cx = 0.0;
+  double cy = 0.0;
+  std::array<double, 5> distortion{};  // k1, k2, p1, p2, k3
+
+  bool Check(std::string* why) const;
+  bool HasDistortion() const;
+  Eigen::Matrix3d K() const;
+
+  // Normalised image coordinates (x/z, y/z) through the distortion model and back.
+  Eigen::Vector2d Distort(const Eigen::Vector2d& normalised) const;
+  // Inverse of Distort by fixed-point iteration (as cv::undistortPoints); exact to ~1e-12
+  // for the distortions of real lenses inside the image.
+  Eigen::Vector2d Undistort(const Eigen::Vector2d& distorted) const;
+
+  // Pixel of a point in the camera frame (z > 0 is the caller's business).
+  Eigen::Vector2d Project(const Eigen::Vector3d& p_c) const;
+  // The bearing ray through a pixel, scaled so that its z component is 1.
+  Eigen::Vector3d Unproject(const Eigen::Vector2d& pixel) const;
+  bool InImage(const Eigen::Vector2d& pixel, double border = 0.0) const;
+};
+
+// Range noise: sigma_d(d) = a + b*d + c*d^2 metres at measured range d (Kinect-style
+// sensors grow quadratically, time-of-flight imagers roughly linearly).
+struct RangeNoiseModel {
+  double a = 0.0;
+  double b = 0.0;
+  double c = 0.0;
+  double Sigma(double range_m) const { return a + b * range_m + c * range_m * range_m; }
+};
+
+// What a range pixel holds: the z coordinate (Kinect, TUM, 7-Scenes) or the distance
+// along the pixel's ray (time-of-flight imagers such as the SwissRanger).
+enum class DepthKind { kZ, kRadial };
+
+struct RangeImager {
+  PinholeCamera camera;              // intrinsics and resolution of the range image
+  double depth_scale = 0.001;        // metres per raw 16-bit unit
+  DepthKind depth_kind = DepthKind::kZ;
+  std::vector<int> invalid_values{0};  // raw values that mean "no measurement"
+  double min_range_m = 0.1;
+  double max_range_m = 10.0;         // the non-ambiguity range for time-of-flight
+  RangeNoiseModel noise;
+
+  bool Check(std::string* why) const;
+  // Metres for a raw value, or 0 when the value is invalid or outside [min, max] range.
+  double RawToMetres(int raw) const;
+  // The 3-D point of a range pixel holding `value_m` (as RawToMetres returned), in the
+  // range imager's frame.
+  Eigen::Vector3d PixelToPoint(const Eigen::Vector2d& pixel, double value_m) const;
+};
+
+// A colour camera and a range imager rigidly mounted together.
+struct Rig {
+  std::string name;
+  PinholeCamera colour;
+  RangeImager range;
+  // Pose of the range imager in the colour camera's frame: p_colour = T * p_range.
+  Eigen::Isometry3d T_colour_range = Eigen::Isometry3d::Identity();
+  // Depth registered to colour: same pixel grid, identity extrinsics.
+  bool registered = false;
+  // Standard deviation of a keypoint's image position, pixels.
+  double pixel_sigma = 1.0;
+
+  bool Check(std::string* why) const;
+};
+
+}  // namespace ieslam

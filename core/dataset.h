@@ -1,0 +1,88 @@
+// Datasets: a sequence of colour + range frames with a calibrated rig and optional ground
+// truth, behind one interface. Frames are loaded lazily, one at a time: opening a
+// 10,000-frame sequence reads only its lists, never its images.
+//
+// Formats (see README "Datasets"):
+//  - tum:     TUM RGB-D (rgb.txt, depth.txt, optional groundtruth.txt); colour and depth
+//             associated by nearest timestamp within 0.02 s as TUM's associate.py does.
+//  - 7scenes: frame-NNNNNN.color.{png,jpg}, .depth.png, .pose.txt; frame i at i/30 s.
+//  - pair:    a colour camera plus a separate range imager (the paper's package), each at
+//             its own resolution, with calib.yaml in the directory.
+#pragma once
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Geometry>
+#include <opencv2/core.hpp>
+
+#include "core/camera.h"
+#include "core/trajectory.h"
+
+namespace ieslam {
+
+struct FrameInfo {
+  int index = 0;           // position in the selected sequence (0 .. size-1)
+  int source_index = 0;    // position in the dataset before first/last/stride selection
+  double timestamp = 0.0;  // seconds
+  std::string colour_path;
+  std::string depth_path;
+  std::optional<Eigen::Isometry3d> T_w_c_gt;  // ground truth of the colour camera, if known
+};
+
+struct Frame {
+  FrameInfo info;
+  cv::Mat colour;  // CV_8UC3, BGR, the colour camera's resolution
+  cv::Mat depth;   // CV_32FC1 metres in the range imager's grid; 0 = no measurement
+};
+
+struct DatasetOptions {
+  std::string format = "auto";  // auto | tum | 7scenes | pair
+  std::string calib_file;       // overrides the format's default calibration when set
+  int first = 0;                // first frame (in the dataset's own numbering)
+  int last = -1;                // last frame, inclusive; -1 = to the end
+  int stride = 1;               // take every stride-th frame
+  double max_association_diff_s = 0.02;  // TUM rgb/depth association
+
+  bool Check(std::string* why) const;
+};
+
+class Dataset {
+ public:
+  virtual ~Dataset() = default;
+
+  virtual std::string format() const = 0;
+  const std::string& directory() const { return directory_; }
+  const Rig& rig() const { return rig_; }
+  int size() const { return static_cast<int>(frames_.size()); }
+  const FrameInfo& info(int i) const { return frames_.at(i); }
+  bool has_ground_truth() const;
+
+  // Reads frame i. Throws DataError naming the file for a missing or corrupt image or
+  // one whose size does not match the calibration.
+  Frame Load(int i) const;
+
+  // Ground truth of the selected frames (those that have it), in frame order.
+  Trajectory GroundTruth() const;
+
+ protected:
+  Dataset(std::string directory, Rig rig) : directory_(std::move(directory)), rig_(std::move(rig)) {}
+  // Applies first/last/stride to the full frame list and numbers the result.
+  void SelectFrames(std::vector<FrameInfo> all, const DatasetOptions& options);
+
+  std::string directory_;
+  Rig rig_;
+  std::vector<FrameInfo> frames_;
+};
+
+// Detects the format of `directory` ("tum", "7scenes", "pair"); throws DataError when
+// none matches, naming what was looked for.
+std::string DetectDatasetFormat(const std::string& directory);
+
+// Opens a dataset. Throws DataError (missing directory or lists, no frames, unsorted
+// timestamps, ...) or ConfigError (bad options) with a message naming the file and value.
+std::unique_ptr<Dataset> OpenDataset(const std::string& directory, const DatasetOptions& options);
+
+}  // namespace ieslam

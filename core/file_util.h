@@ -1,0 +1,26 @@
+// Small file helpers shared by every stage: atomic writes and existence checks.
+#pragma once
+
+#include <functional>
+#include <ostream>
+#include <string>
+
+namespace ieslam {
+
+// Writes a file so that readers never see it half-written: the content goes to a
+// temporary file in the same directory, which is then renamed over `path`.
+// Throws DataError naming the path when the directory cannot be written.
+void WriteFileAtomically(const std::string& path,
+                         const std::function<void(std::ostream&)>& write,
+                         bool binary = false);
+void WriteTextAtomically(const std::string& path, const std::string& content);
+
+// Throws DataError("<what> not found: <path>") unless `path` is a regular file.
+void RequireFile(const std::string& path, const std::string& what);
+// Throws DataError unless `path` is a directory.
+void RequireDirectory(const std::string& path, const std::string& what);
+
+// Joins two path components with exactly one '/'.
+std::string JoinPath(const std::string& dir, const std::string& name);
+
+}  // namespace ieslam

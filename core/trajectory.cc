@@ -1,0 +1,81 @@
+#include "core/trajectory.h"
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+
+#include "core/error.h"
+#include "core/file_util.h"
+
+namespace ieslam {
+
+Trajectory ReadTumTrajectory(const std::string& path) {
+  RequireFile(path, "trajectory file");
+  std::ifstream in(path);
+  if (!in) throw DataError("cannot open trajectory file " + path);
+  Trajectory trajectory;
+  std::string line;
+  int line_number = 0;
+  while (std::getline(in, line)) {
+    ++line_number;
+    const std::string where = path + ":" + std::to_string(line_number);
+    const size_t first = line.find_first_not_of(" \t\r");
+    if (first == std::string::npos || line[first] == '#') continue;
+    for (char& c : line) {
+      if (c == ',') c = ' ';  // TUM's tools accept comma-separated lines too
+    }
+    std::istringstream fields(line);
+    double v[8];
+    for (double& value : v) {
+      std::string token;
+      if (!(fields >> token)) {
+        throw DataError(where + ": expected 8 values `t tx ty tz qx qy qz qw`, got: " + line);
+      }
+      char* end = nullptr;
+      value = std::strtod(token.c_str(), &end);
+      if (end == token.c_str() || *end != '\0') {
+        throw DataError(where + ": not a number: '" + token + "'");
+      }
+      if (!std::isfinite(value)) throw DataError(where + ": non-finite value '" + token + "'");
+    }
+    const Eigen::Quaterniond q(v[7], v[4], v[5], v[6]);
+    if (q.norm() < 0.5 || q.norm() > 1.5) {
+      throw DataError(where + ": quaternion is far from unit length (norm " +
+                      std::to_string(q.norm()) + ")");
+    }
+    if (!trajectory.empty() && !(v[0] > trajectory.back().timestamp)) {
+      std::ostringstream s;
+      s.precision(6);
+      s << std::fixed << where << ": timestamps must increase strictly, got " << v[0]
+        << " after " << trajectory.back().timestamp;
+      throw DataError(s.str());
+    }
+    TimedPose pose;
+    pose.timestamp = v[0];
+    pose.T_w_c.linear() = q.normalized().toRotationMatrix();
+    pose.T_w_c.translation() = Eigen::Vector3d(v[1], v[2], v[3]);
+    trajectory.push_back(pose);
+  }
+  return trajectory;
+}
+
+std::string FormatTumLine(const TimedPose& pose) {
+  Eigen::Quaterniond q(pose.T_w_c.linear());
+  if (q.w() < 0.0) q.coeffs() = -q.coeffs();  // one sign for q and -q, so files compare equal
+  const Eigen::Vector3d& t = pose.T_w_c.translation();
+  char buffer[256];
+  std::snprintf(buffer, sizeof(buffer), "%.6f %.9f %.9f %.9f %.9f %.9f %.9f %.9f", pose.timestamp,
+                t.x(), t.y(), t.z(), q.x(), q.y(), q.z(), q.w());
+  return buffer;
+}
+
+void WriteTumTrajectory(const std::string& path, const Trajectory& trajectory,
+                        const std::string& comment) {
+  WriteFileAtomically(path, [&](std::ostream& out) {
+    if (!comment.empty()) out << "# " << comment << "\n";
+    for (const TimedPose& pose : trajectory) out << FormatTumLine(pose) << "\n";
+  });
+}
+
+}  // namespace ieslam

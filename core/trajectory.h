@@ -1,0 +1,32 @@
+// Trajectories in the TUM RGB-D format: one pose per line, `t tx ty tz qx qy qz qw`
+// (camera-to-world, unit quaternion with w last), `#` comments and blank lines allowed.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+namespace ieslam {
+
+struct TimedPose {
+  double timestamp = 0.0;  // seconds
+  Eigen::Isometry3d T_w_c = Eigen::Isometry3d::Identity();
+};
+
+using Trajectory = std::vector<TimedPose>;
+
+// Reads a TUM trajectory. Throws DataError naming the file and line for a malformed line,
+// NaN/inf values, a zero quaternion, or timestamps that are not strictly increasing.
+// Quaternions are normalised (files print them to 4-6 decimals).
+Trajectory ReadTumTrajectory(const std::string& path);
+
+// Writes atomically with 6-decimal timestamps and 9-decimal values; `comment` (without
+// the leading '#') becomes the first line when non-empty.
+void WriteTumTrajectory(const std::string& path, const Trajectory& trajectory,
+                        const std::string& comment = "");
+
+// One line in TUM format, without a newline.
+std::string FormatTumLine(const TimedPose& pose);
+
+}  // namespace ieslam
