@@ -1,0 +1,25 @@
+// The subcommands of `ieslam`. Each takes the arguments after its name and returns the
+// process exit code; ConfigError and DataError propagate to main, which maps them to
+// exit codes 2 and 3 (../shared/CLI.md).
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace ieslam {
+
+using CommandArgs = std::vector<std::string>;
+
+struct Command {
+  const char* name;
+  const char* summary;
+  int (*run)(const CommandArgs& args);  // nullptr: not built yet
+  const char* status;                   // for commands not built yet: where the work stands
+};
+
+// Every subcommand of ../shared/CLI.md, in the order `ieslam --help` lists them.
+const std::vector<Command>& Commands();
+
+int EvaluateCommand(const CommandArgs& args);
+
+}  // namespace ieslam
