@@ -1,0 +1,181 @@
+#include "core/dataset.h"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <regex>
+#include <sstream>
+
+#include <glog/logging.h>
+#include <opencv2/imgcodecs.hpp>
+
+#include "core/dataset_formats.h"
+#include "core/error.h"
+#include "core/file_util.h"
+
+namespace ieslam {
+namespace {
+
+std::string SizeString(int width, int height) {
+  return std::to_string(width) + "x" + std::to_string(height);
+}
+
+// Reads an image, telling a missing file from one that does not decode.
+cv::Mat ReadImage(const std::string& path, int flags, const std::string& what, int frame) {
+  const std::string prefix = "frame " + std::to_string(frame) + ": ";
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) {
+    throw DataError(prefix + what + " not found: " + path);
+  }
+  cv::Mat image;
+  try {
+    image = cv::imread(path, flags);
+  } catch (const cv::Exception& e) {
+    throw DataError(prefix + "cannot decode " + what + " " + path + ": " + e.msg);
+  }
+  if (image.empty()) {
+    throw DataError(prefix + "cannot decode " + what + " " + path + " (corrupt or not an image)");
+  }
+  return image;
+}
+
+void RequireSize(const cv::Mat& image, const PinholeCamera& camera, const std::string& path,
+                 const std::string& what, const std::string& rig_name, int frame) {
+  if (image.cols != camera.width || image.rows != camera.height) {
+    throw DataError("frame " + std::to_string(frame) + ": " + what + " " + path + " is " +
+                    SizeString(image.cols, image.rows) + " but calibration '" + rig_name +
+                    "' expects " + SizeString(camera.width, camera.height));
+  }
+}
+
+bool IsFile(const std::string& path) {
+  std::error_code ec;
+  return std::filesystem::is_regular_file(path, ec);
+}
+
+void RequireDatasetDirectory(const std::string& directory) {
+  std::error_code ec;
+  if (!std::filesystem::exists(directory, ec)) {
+    throw DataError("dataset directory not found: " + directory);
+  }
+  if (!std::filesystem::is_directory(directory, ec)) {
+    throw DataError("dataset path is not a directory: " + directory);
+  }
+}
+
+}  // namespace
+
+bool DatasetOptions::Check(std::string* why) const {
+  std::ostringstream s;
+  if (format != "auto" && format != "tum" && format != "7scenes" && format != "pair") {
+    s << "format must be auto, tum, 7scenes or pair, got '" << format << "'";
+  } else if (first < 0) {
+    s << "first must be >= 0, got " << first;
+  } else if (last != -1 && last < first) {
+    s << "last must be -1 (to the end) or >= first (" << first << "), got " << last;
+  } else if (stride < 1) {
+    s << "stride must be >= 1, got " << stride;
+  } else if (!(max_association_diff_s > 0.0) || !std::isfinite(max_association_diff_s)) {
+    s << "max_association_diff_s must be positive, got " << max_association_diff_s;
+  } else if (!(max_ground_truth_diff_s > 0.0) || !std::isfinite(max_ground_truth_diff_s)) {
+    s << "max_ground_truth_diff_s must be positive, got " << max_ground_truth_diff_s;
+  } else {
+    return true;
+  }
+  if (why != nullptr) *why = s.str();
+  return false;
+}
+
+bool Dataset::has_ground_truth() const {
+  return std::any_of(frames_.begin(), frames_.end(),
+                     [](const FrameInfo& f) { return f.T_w_c_gt.has_value(); });
+}
+
+Frame Dataset::Load(int i) const {
+  CHECK_GE(i, 0) << "frame index";
+  CHECK_LT(i, size()) << "frame index";
+  Frame frame;
+  frame.info = frames_[i];
+  const FrameInfo& info = frame.info;
+
+  frame.colour = ReadImage(info.colour_path, cv::IMREAD_COLOR, "colour image", i);
+  RequireSize(frame.colour, rig_.colour, info.colour_path, "colour image", rig_.name, i);
+
+  const cv::Mat raw = ReadImage(info.depth_path, cv::IMREAD_UNCHANGED, "range image", i);
+  if (raw.type() != CV_16UC1) {
+    throw DataError("frame " + std::to_string(i) + ": range image " + info.depth_path +
+                    " must be 16-bit single-channel, got " + std::to_string(raw.elemSize1() * 8) +
+                    "-bit with " + std::to_string(raw.channels()) + " channel(s)");
+  }
+  RequireSize(raw, rig_.range.camera, info.depth_path, "range image", rig_.name, i);
+  frame.depth.create(raw.rows, raw.cols, CV_32FC1);
+  for (int r = 0; r < raw.rows; ++r) {
+    const uint16_t* in = raw.ptr<uint16_t>(r);
+    float* out = frame.depth.ptr<float>(r);
+    for (int c = 0; c < raw.cols; ++c) out[c] = static_cast<float>(rig_.range.RawToMetres(in[c]));
+  }
+  return frame;
+}
+
+Trajectory Dataset::GroundTruth() const {
+  Trajectory trajectory;
+  for (const FrameInfo& f : frames_) {
+    if (!f.T_w_c_gt) continue;
+    TimedPose pose;
+    pose.timestamp = f.timestamp;
+    pose.T_w_c = *f.T_w_c_gt;
+    trajectory.push_back(pose);
+  }
+  return trajectory;
+}
+
+void Dataset::SelectFrames(std::vector<FrameInfo> all, const DatasetOptions& options) {
+  std::string why;
+  CHECK(options.Check(&why)) << why;
+  total_frames_ = static_cast<int>(all.size());
+  if (all.empty()) throw DataError("no frames in dataset " + directory_);
+  if (options.first >= total_frames_) {
+    throw DataError("no frames selected: first = " + std::to_string(options.first) + " but " +
+                    directory_ + " has " + std::to_string(total_frames_) + " frames (0.." +
+                    std::to_string(total_frames_ - 1) + ")");
+  }
+  const int last = options.last < 0 ? total_frames_ - 1 : std::min(options.last, total_frames_ - 1);
+  frames_.clear();
+  for (int source = options.first; source <= last; source += options.stride) {
+    FrameInfo info = std::move(all[source]);
+    info.index = static_cast<int>(frames_.size());
+    info.source_index = source;
+    frames_.push_back(std::move(info));
+  }
+}
+
+std::string DetectDatasetFormat(const std::string& directory) {
+  RequireDatasetDirectory(directory);
+  if (IsFile(JoinPath(directory, "rgb.txt")) && IsFile(JoinPath(directory, "depth.txt"))) {
+    return "tum";
+  }
+  if (IsFile(JoinPath(directory, "colour.txt")) && IsFile(JoinPath(directory, "range.txt"))) {
+    return "pair";
+  }
+  static const std::regex kSevenScenesDepth(R"(frame-\d+\.depth\.png)");
+  std::error_code ec;
+  for (const auto& entry : std::filesystem::directory_iterator(directory, ec)) {
+    if (std::regex_match(entry.path().filename().string(), kSevenScenesDepth)) return "7scenes";
+  }
+  throw DataError("cannot tell the format of dataset " + directory +
+                  ": looked for rgb.txt + depth.txt (tum), colour.txt + range.txt (pair) and "
+                  "frame-NNNNNN.depth.png (7scenes)");
+}
+
+std::unique_ptr<Dataset> OpenDataset(const std::string& directory, const DatasetOptions& options) {
+  std::string why;
+  if (!options.Check(&why)) throw ConfigError("dataset options: " + why);
+  RequireDatasetDirectory(directory);
+  const std::string format =
+      options.format == "auto" ? DetectDatasetFormat(directory) : options.format;
+  if (format == "tum") return std::make_unique<TumDataset>(directory, options);
+  if (format == "7scenes") return std::make_unique<SevenScenesDataset>(directory, options);
+  return std::make_unique<PairDataset>(directory, options);
+}
+
+}  // namespace ieslam

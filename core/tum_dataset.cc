@@ -1,0 +1,59 @@
+// TUM RGB-D format (Sturm et al., IROS 2012): rgb.txt and depth.txt list `timestamp path`,
+// groundtruth.txt (optional) holds the colour camera's motion-capture poses. Depth is
+// registered to colour, 16-bit, raw / 5000 = metres.
+#include <filesystem>
+#include <regex>
+
+#include "core/calibration.h"
+#include "core/dataset_formats.h"
+#include "core/error.h"
+#include "core/file_util.h"
+
+namespace ieslam {
+namespace {
+
+// The sequence's name: "rgbd_dataset_freiburg1_desk" for ".../rgbd_dataset_freiburg1_desk/"
+// or for "." run inside it.
+std::string DirectoryName(const std::string& directory) {
+  std::error_code ec;
+  std::filesystem::path path = std::filesystem::weakly_canonical(directory, ec);
+  if (ec) path = std::filesystem::path(directory).lexically_normal();
+  if (path.filename().empty()) path = path.parent_path();
+  return path.filename().string();
+}
+
+}  // namespace
+
+TumDataset::TumDataset(const std::string& directory, const DatasetOptions& options)
+    : Dataset(directory, Rig()) {
+  const std::string local_calib = JoinPath(directory, "calib.yaml");
+  std::error_code ec;
+  if (!options.calib_file.empty()) {
+    calibration_path_ = options.calib_file;
+    calibration_source_ = "given calibration file";
+  } else if (std::filesystem::is_regular_file(local_calib, ec)) {
+    // Datasets we write ourselves (ieslam synth) carry their rig with them.
+    calibration_path_ = local_calib;
+    calibration_source_ = "calib.yaml in the dataset directory";
+  } else {
+    // TUM sequences are named rgbd_dataset_freiburgN_...; fr1/fr2/fr3 are common short forms.
+    static const std::regex kSequence(R"((freiburg|fr)_?([123])(?![0-9]))", std::regex::icase);
+    const std::string name = DirectoryName(directory);
+    std::smatch match;
+    if (std::regex_search(name, match, kSequence)) {
+      calibration_path_ = DefaultCalibrationPath("tum_fr" + match[2].str());
+      calibration_source_ = "directory name '" + name + "' names freiburg" + match[2].str();
+    } else {
+      calibration_path_ = DefaultCalibrationPath("tum_fr1");
+      calibration_source_ = "default (directory name '" + name +
+                            "' names no freiburg1/2/3 sequence; set a calibration file if the "
+                            "camera is not freiburg1's)";
+    }
+  }
+  rig_ = ReadCalibration(calibration_path_);
+  SelectFrames(ReadListedFrames(JoinPath(directory, "rgb.txt"), JoinPath(directory, "depth.txt"),
+                                JoinPath(directory, "groundtruth.txt"), options),
+               options);
+}
+
+}  // namespace ieslam
