@@ -6,13 +6,13 @@ const std::vector<Command>& Commands() {
   static const std::vector<Command> commands = {
       {"run", "dataset -> features -> keyframe selection -> EIF (-> bundle adjustment)", nullptr,
        "issue 8: the pipeline lands once the frontend and selector do"},
-      {"evaluate", "TUM-compatible ATE / RPE of a trajectory against ground truth", nullptr,
-       "issue 8"},
+      {"evaluate", "TUM-compatible ATE / RPE of a trajectory against ground truth",
+       EvaluateCommand, ""},
       {"simulate", "the paper's simulation: Table I and filter consistency", nullptr,
        "issues 3, 5, 6"},
       {"synth", "write a synthetic RGB-D dataset with exact ground truth", nullptr, "issue 3"},
-      {"register", "register frame i to i+K across a dataset against ground truth", nullptr,
-       "issue 4"},
+      {"register", "register frame i to i+K across a dataset against ground truth",
+       RegisterCommand, ""},
   };
   return commands;
 }

@@ -21,5 +21,8 @@ struct Command {
 const std::vector<Command>& Commands();
 
 int EvaluateCommand(const CommandArgs& args);
+int RegisterCommand(const CommandArgs& args);
+
+int EvaluateCommand(const CommandArgs& args);
 
 }  // namespace ieslam

@@ -1,0 +1,88 @@
+#include "apps/app_util.h"
+
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <system_error>
+
+#include <unistd.h>
+
+#include "core/error.h"
+
+namespace ieslam {
+
+void PrepareOutputDirectory(const std::string& path) {
+  std::error_code ec;
+  std::filesystem::create_directories(path, ec);
+  if (ec || !std::filesystem::is_directory(path)) {
+    throw ConfigError("cannot create output directory " + path +
+                      (ec ? ": " + ec.message() : std::string(": a file is in the way")));
+  }
+}
+
+std::vector<FlagSpec> DatasetFlagSpecs() {
+  return {{"dataset", "DIR", "dataset directory (TUM, 7-Scenes or pair layout)"},
+          {"format", "F", "auto|tum|7scenes|pair (default auto)"},
+          {"calib", "FILE", "calibration YAML overriding the format's default"},
+          {"first", "N", "first frame (default 0)"},
+          {"last", "N", "last frame, inclusive (default: the end)"},
+          {"stride", "N", "use every N-th frame (default 1)"}};
+}
+
+DatasetOptions DatasetOptionsFromFlags(const Flags& flags) {
+  DatasetOptions options;
+  options.format = flags.GetString("format", options.format);
+  options.calib_file = flags.GetString("calib", "");
+  options.first = flags.GetInt("first", options.first, 0, 100000000);
+  options.last = flags.GetInt("last", options.last, -1, 100000000);
+  options.stride = flags.GetInt("stride", options.stride, 1, 100000);
+  std::string why;
+  if (!options.Check(&why)) throw ConfigError(why);
+  return options;
+}
+
+Json DatasetOptionsToJson(const DatasetOptions& options) {
+  return Json::Object()
+      .Set("format", options.format)
+      .Set("calib", options.calib_file)
+      .Set("first", options.first)
+      .Set("last", options.last)
+      .Set("stride", options.stride)
+      .Set("max_association_diff_s", options.max_association_diff_s);
+}
+
+Progress::Progress(std::string label, int total, bool quiet)
+    : label_(std::move(label)),
+      total_(total),
+      quiet_(quiet),
+      terminal_(::isatty(STDERR_FILENO) != 0),
+      start_(std::chrono::steady_clock::now()) {}
+
+void Progress::Update(int done, const std::string& extra) {
+  if (quiet_ || total_ <= 0) return;
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+  const double rate = seconds > 0.0 ? done / seconds : 0.0;
+  const double eta = rate > 0.0 ? (total_ - done) / rate : 0.0;
+  char line[256];
+  if (terminal_) {
+    const int width = 30, filled = width * done / total_;
+    std::snprintf(line, sizeof(line), "\r%s [%s%s] %d/%d  %.1f/s  ETA %.0fs  %s", label_.c_str(),
+                  std::string(filled, '#').c_str(), std::string(width - filled, '.').c_str(), done,
+                  total_, rate, eta, extra.c_str());
+    std::cerr << line << std::flush;
+    return;
+  }
+  const int decile = 10 * done / total_;
+  if (decile == last_decile_) return;
+  last_decile_ = decile;
+  std::snprintf(line, sizeof(line), "%s: %d/%d (%.1f/s, ETA %.0fs) %s", label_.c_str(), done,
+                total_, rate, eta, extra.c_str());
+  std::cerr << line << "\n";
+}
+
+void Progress::Finish() {
+  if (!quiet_ && terminal_) std::cerr << "\n";
+}
+
+}  // namespace ieslam

@@ -1,0 +1,42 @@
+// Pieces every subcommand shares: output directories, dataset flags, progress, reports.
+#pragma once
+
+#include <chrono>
+#include <string>
+#include <vector>
+
+#include "apps/flags.h"
+#include "core/dataset.h"
+#include "core/json.h"
+
+namespace ieslam {
+
+// Creates OUT (and parents). Throws ConfigError naming it when it cannot be created or is
+// a file.
+void PrepareOutputDirectory(const std::string& path);
+
+// The flags shared by commands that read a dataset, and their parsing.
+std::vector<FlagSpec> DatasetFlagSpecs();
+DatasetOptions DatasetOptionsFromFlags(const Flags& flags);
+
+// Progress on stderr: a redrawn bar when stderr is a terminal, otherwise a plain log line
+// at every 10%. Silent when quiet.
+class Progress {
+ public:
+  Progress(std::string label, int total, bool quiet);
+  void Update(int done, const std::string& extra = "");
+  void Finish();
+
+ private:
+  std::string label_;
+  int total_;
+  bool quiet_;
+  bool terminal_;
+  int last_decile_ = -1;
+  std::chrono::steady_clock::time_point start_;
+};
+
+// The options of a dataset as written into reports.
+Json DatasetOptionsToJson(const DatasetOptions& options);
+
+}  // namespace ieslam

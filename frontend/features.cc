@@ -1,0 +1,77 @@
+#include "frontend/features.h"
+
+#include <algorithm>
+#include <numeric>
+#include <tuple>
+
+#include <opencv2/features2d.hpp>
+#include <glog/logging.h>
+#include <opencv2/imgproc.hpp>
+
+namespace ieslam {
+
+bool FeatureOptions::Check(std::string* why) const {
+  auto fail = [why](const std::string& message) {
+    if (why != nullptr) *why = message;
+    return false;
+  };
+  if (max_features < 0) return fail("features.max_features must be >= 0");
+  if (!(contrast_threshold > 0.0 && contrast_threshold < 1.0)) {
+    return fail("features.contrast_threshold must be in (0, 1), got " +
+                std::to_string(contrast_threshold));
+  }
+  if (!(edge_threshold > 1.0)) return fail("features.edge_threshold must be > 1");
+  if (octave_layers < 1 || octave_layers > 8) return fail("features.octave_layers must be in [1, 8]");
+  if (!(sigma > 0.0)) return fail("features.sigma must be > 0");
+  if (!(image_scale > 0.1 && image_scale <= 1.0)) {
+    return fail("features.image_scale must be in (0.1, 1], got " + std::to_string(image_scale));
+  }
+  return true;
+}
+
+FrameFeatures ExtractFeatures(const cv::Mat& colour_bgr, const FeatureOptions& options) {
+  CHECK_EQ(colour_bgr.type(), CV_8UC3);
+  cv::Mat grey;
+  cv::cvtColor(colour_bgr, grey, cv::COLOR_BGR2GRAY);
+  if (options.image_scale != 1.0) {
+    cv::resize(grey, grey, cv::Size(), options.image_scale, options.image_scale, cv::INTER_AREA);
+  }
+  // nfeatures = 0: we rank and cut ourselves below, so that ties are broken deterministically.
+  cv::Ptr<cv::SIFT> sift = cv::SIFT::create(0, options.octave_layers, options.contrast_threshold,
+                                            options.edge_threshold, options.sigma);
+  std::vector<cv::KeyPoint> keypoints;
+  cv::Mat descriptors;
+  sift->detectAndCompute(grey, cv::noArray(), keypoints, descriptors);
+
+  std::vector<int> order(keypoints.size());
+  std::iota(order.begin(), order.end(), 0);
+  // OpenCV merges per-thread keypoint lists, so their order depends on the thread count:
+  // a total order on the keypoints' own values makes the result independent of it.
+  std::sort(order.begin(), order.end(), [&keypoints](int a, int b) {
+    const cv::KeyPoint& p = keypoints[a];
+    const cv::KeyPoint& q = keypoints[b];
+    return std::tie(q.response, p.pt.x, p.pt.y, p.size, p.angle, p.octave) <
+           std::tie(p.response, q.pt.x, q.pt.y, q.size, q.angle, q.octave);
+  });
+  if (options.max_features > 0 && static_cast<int>(order.size()) > options.max_features) {
+    order.resize(options.max_features);
+  }
+
+  FrameFeatures features;
+  features.descriptors.create(static_cast<int>(order.size()), 128, CV_32F);
+  const double to_full = 1.0 / options.image_scale;
+  for (size_t row = 0; row < order.size(); ++row) {
+    const cv::KeyPoint& kp = keypoints[order[row]];
+    // Pixel centres: OpenCV's resize maps pixel centre x' to (x' + 0.5) / s - 0.5.
+    const Eigen::Vector2d pixel((kp.pt.x + 0.5) * to_full - 0.5, (kp.pt.y + 0.5) * to_full - 0.5);
+    features.pixels.push_back(pixel);
+    features.scales.push_back(static_cast<float>(kp.size * to_full));
+    const int x = std::clamp(static_cast<int>(std::lround(pixel.x())), 0, colour_bgr.cols - 1);
+    const int y = std::clamp(static_cast<int>(std::lround(pixel.y())), 0, colour_bgr.rows - 1);
+    features.colours.push_back(colour_bgr.at<cv::Vec3b>(y, x));
+    descriptors.row(order[row]).copyTo(features.descriptors.row(static_cast<int>(row)));
+  }
+  return features;
+}
+
+}  // namespace ieslam

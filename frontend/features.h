@@ -1,0 +1,42 @@
+// SIFT keypoints and descriptors of a colour image (paper §IV: SIFT in the colour image).
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+namespace ieslam {
+
+struct FeatureOptions {
+  // Upper bound on keypoints kept (strongest first); 0 keeps all.
+  int max_features = 1000;
+  double contrast_threshold = 0.04;  // OpenCV's default (Lowe's 0.03 on a different scale)
+  double edge_threshold = 10.0;
+  int octave_layers = 3;
+  double sigma = 1.6;
+  // SIFT runs on the image resized by this factor and keypoints are scaled back. OpenCV
+  // doubles the image before the first octave, so 0.5 still starts at full resolution's
+  // finest detail; measured on 640x480 Kinect frames it keeps registration accuracy at
+  // about a third of the cost (../shared/MEASURED.md).
+  double image_scale = 0.5;
+
+  bool Check(std::string* why) const;
+};
+
+// Keypoints of one image. Row i of `descriptors` belongs to keypoint i.
+struct FrameFeatures {
+  std::vector<Eigen::Vector2d> pixels;  // distorted pixel coordinates in the full image
+  std::vector<float> scales;            // keypoint size (diameter) in full-image pixels
+  std::vector<cv::Vec3b> colours;       // BGR at the keypoint
+  cv::Mat descriptors;                  // CV_32F, N x 128
+
+  int size() const { return static_cast<int>(pixels.size()); }
+};
+
+// Detects SIFT keypoints. A textureless image gives an empty set (no error): the caller
+// decides what too few features means. The result does not depend on OpenCV's thread count.
+FrameFeatures ExtractFeatures(const cv::Mat& colour_bgr, const FeatureOptions& options);
+
+}  // namespace ieslam

@@ -1,0 +1,76 @@
+#include "frontend/frame_processor.h"
+
+#include <chrono>
+
+#include <glog/logging.h>
+
+namespace ieslam {
+namespace {
+
+double SecondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+}  // namespace
+
+bool FrontendOptions::Check(std::string* why) const {
+  return features.Check(why) && lifting.Check(why) && matching.Check(why) &&
+         registration.Check(why);
+}
+
+FrameProcessor::FrameProcessor(const Rig& rig, const FrontendOptions& options)
+    : options_(options), lifter_(rig, options.lifting) {
+  std::string why;
+  CHECK(options.Check(&why)) << why;
+}
+
+ProcessedFrame FrameProcessor::Process(const Frame& frame) const {
+  ProcessedFrame processed;
+  processed.info = frame.info;
+  auto start = std::chrono::steady_clock::now();
+  FrameFeatures all = ExtractFeatures(frame.colour, options_.features);
+  processed.seconds_extract = SecondsSince(start);
+  processed.keypoints_detected = all.size();
+
+  start = std::chrono::steady_clock::now();
+  std::vector<LiftedPoint> lifted = lifter_.Lift(all.pixels, frame.depth);
+  std::vector<int> keep;
+  for (int i = 0; i < all.size(); ++i) {
+    if (lifted[i].valid) keep.push_back(i);
+  }
+  FrameFeatures& kept = processed.features;
+  kept.descriptors.create(static_cast<int>(keep.size()), all.descriptors.cols, CV_32F);
+  for (size_t row = 0; row < keep.size(); ++row) {
+    const int i = keep[row];
+    kept.pixels.push_back(all.pixels[i]);
+    kept.scales.push_back(all.scales[i]);
+    kept.colours.push_back(all.colours[i]);
+    all.descriptors.row(i).copyTo(kept.descriptors.row(static_cast<int>(row)));
+    processed.points.push_back(lifted[i]);
+  }
+  processed.seconds_lift = SecondsSince(start);
+  return processed;
+}
+
+FrameRegistration RegisterFrames(const ProcessedFrame& a, const ProcessedFrame& b,
+                                 const MatchOptions& matching,
+                                 const RegistrationOptions& registration) {
+  FrameRegistration out;
+  auto start = std::chrono::steady_clock::now();
+  out.matches = MatchDescriptors(b.features.descriptors, a.features.descriptors, matching);
+  out.seconds_match = SecondsSince(start);
+
+  start = std::chrono::steady_clock::now();
+  std::vector<Eigen::Vector3d> points_a, points_b;
+  points_a.reserve(out.matches.size());
+  points_b.reserve(out.matches.size());
+  for (const DescriptorMatch& m : out.matches) {
+    points_a.push_back(a.points[m.train].p_c);
+    points_b.push_back(b.points[m.query].p_c);
+  }
+  out.result = RegisterPointSets(points_a, points_b, registration);
+  out.seconds_ransac = SecondsSince(start);
+  return out;
+}
+
+}  // namespace ieslam

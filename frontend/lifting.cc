@@ -1,0 +1,134 @@
+#include "frontend/lifting.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include <glog/logging.h>
+
+#include "core/observation.h"
+
+namespace ieslam {
+
+bool LiftingOptions::Check(std::string* why) const {
+  auto fail = [why](const std::string& message) {
+    if (why != nullptr) *why = message;
+    return false;
+  };
+  if (window_radius < 0 || window_radius > 5) return fail("lifting.window_radius must be in [0, 5]");
+  if (!(sigma_multiplier > 0.0) || !(footprint_multiplier >= 0.0) || !(edge_sigma_multiplier > 0.0)) {
+    return fail("lifting multipliers must be positive");
+  }
+  const int window = (2 * window_radius + 1) * (2 * window_radius + 1);
+  if (min_valid_in_window < 1 || min_valid_in_window > window) {
+    return fail("lifting.min_valid_in_window must be in [1, (2r+1)^2]");
+  }
+  return true;
+}
+
+FeatureLifter::FeatureLifter(const Rig& rig, const LiftingOptions& options)
+    : rig_(rig), options_(options), T_range_colour_(rig.T_colour_range.inverse()) {
+  std::string why;
+  CHECK(options.Check(&why)) << why;
+  CHECK(rig.Check(&why)) << why;
+}
+
+std::vector<LiftedPoint> FeatureLifter::Lift(const std::vector<Eigen::Vector2d>& pixels,
+                                             const cv::Mat& depth) const {
+  CHECK_EQ(depth.type(), CV_32F);
+  CHECK_EQ(depth.cols, rig_.range.camera.width);
+  CHECK_EQ(depth.rows, rig_.range.camera.height);
+  std::vector<LiftedPoint> lifted;
+  lifted.reserve(pixels.size());
+  for (const Eigen::Vector2d& pixel : pixels) {
+    lifted.push_back(rig_.registered ? LiftRegistered(pixel, depth) : LiftThroughCloud(pixel, depth));
+  }
+  return lifted;
+}
+
+LiftedPoint FeatureLifter::MakePoint(const Eigen::Vector2d& pixel, const Eigen::Vector3d& ray_unit,
+                                     double along_ray) const {
+  LiftedPoint point;
+  point.valid = true;
+  point.p_c = ray_unit * along_ray;
+  const Eigen::Vector3d n = rig_.colour.Unproject(pixel);  // undistorted, z = 1
+  point.z = Eigen::Vector3d(rig_.colour.fx * n.x() + rig_.colour.cx,
+                            rig_.colour.fy * n.y() + rig_.colour.cy, along_ray);
+  point.Q = ObservationCovariance(rig_.pixel_sigma, rig_.range.noise, along_ray);
+  return point;
+}
+
+LiftedPoint FeatureLifter::LiftRegistered(const Eigen::Vector2d& pixel, const cv::Mat& depth) const {
+  const int x0 = static_cast<int>(std::lround(pixel.x()));
+  const int y0 = static_cast<int>(std::lround(pixel.y()));
+  const int r = options_.window_radius;
+  if (x0 - r < 0 || y0 - r < 0 || x0 + r >= depth.cols || y0 + r >= depth.rows) return {};
+  float values[121];
+  int n = 0;
+  for (int y = y0 - r; y <= y0 + r; ++y) {
+    for (int x = x0 - r; x <= x0 + r; ++x) {
+      const float v = depth.at<float>(y, x);
+      if (v > 0.0f && std::isfinite(v)) values[n++] = v;
+    }
+  }
+  if (n < options_.min_valid_in_window) return {};
+  std::sort(values, values + n);
+  const double median = values[n / 2];
+  // The window spans 2r pixels: a surface slanted at ~60 deg changes depth by about
+  // 2r * z / f * tan(60) across it; more than that plus the noise is an edge.
+  const double lateral = 2.0 * r * median / rig_.range.camera.fx * std::tan(60.0 * M_PI / 180.0);
+  const double allowed = options_.edge_sigma_multiplier * rig_.range.noise.Sigma(median) + lateral;
+  if (values[n - 1] - values[0] > allowed) return {};
+  const Eigen::Vector3d ray = rig_.colour.Unproject(pixel);
+  const Eigen::Vector3d p = rig_.range.depth_kind == DepthKind::kZ ? Eigen::Vector3d(ray * median)
+                                                                   : ray.normalized() * median;
+  return MakePoint(pixel, ray.normalized(), p.norm());
+}
+
+LiftedPoint FeatureLifter::LiftThroughCloud(const Eigen::Vector2d& pixel,
+                                            const cv::Mat& depth) const {
+  const PinholeCamera& range_camera = rig_.range.camera;
+  const Eigen::Vector3d ray_c = rig_.colour.Unproject(pixel).normalized();
+  const Eigen::Vector3d origin_r = T_range_colour_.translation();
+  const Eigen::Vector3d ray_r = T_range_colour_.linear() * ray_c;
+
+  // The ray's epipolar segment in the range image, between min and max range.
+  const double s_near = rig_.range.min_range_m, s_far = rig_.range.max_range_m;
+  const Eigen::Vector3d near_r = origin_r + s_near * ray_r, far_r = origin_r + s_far * ray_r;
+  if (near_r.z() <= 0.0 || far_r.z() <= 0.0) return {};
+  const Eigen::Vector2d a = range_camera.Project(near_r), b = range_camera.Project(far_r);
+  const int steps = std::min(4000, static_cast<int>(std::ceil((b - a).norm() * 2.0)) + 1);
+
+  const int r = options_.window_radius;
+  double best_distance = std::numeric_limits<double>::max(), best_along = 0.0;
+  int last_x = std::numeric_limits<int>::min(), last_y = last_x;
+  for (int i = 0; i < steps; ++i) {
+    const Eigen::Vector2d p = steps == 1 ? a : Eigen::Vector2d(a + (b - a) * (double(i) / (steps - 1)));
+    const int cx = static_cast<int>(std::lround(p.x())), cy = static_cast<int>(std::lround(p.y()));
+    if (cx == last_x && cy == last_y) continue;
+    last_x = cx;
+    last_y = cy;
+    for (int y = std::max(0, cy - r); y <= std::min(depth.rows - 1, cy + r); ++y) {
+      for (int x = std::max(0, cx - r); x <= std::min(depth.cols - 1, cx + r); ++x) {
+        const float v = depth.at<float>(y, x);
+        if (!(v > 0.0f) || !std::isfinite(v)) continue;
+        const Eigen::Vector3d q_c = rig_.T_colour_range * rig_.range.PixelToPoint({x, y}, v);
+        const double along = q_c.dot(ray_c);
+        if (along <= 0.0) continue;
+        const double distance = (q_c - along * ray_c).norm();
+        if (distance < best_distance) {
+          best_distance = distance;
+          best_along = along;
+        }
+      }
+    }
+  }
+  if (best_along <= 0.0) return {};
+  const double footprint = best_along / range_camera.fx;
+  const double tolerance = options_.sigma_multiplier * rig_.range.noise.Sigma(best_along) +
+                           options_.footprint_multiplier * footprint;
+  if (best_distance > tolerance) return {};
+  return MakePoint(pixel, ray_c, best_along);
+}
+
+}  // namespace ieslam

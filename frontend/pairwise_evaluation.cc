@@ -1,0 +1,105 @@
+#include "frontend/pairwise_evaluation.h"
+
+#include <algorithm>
+#include <cmath>
+#include <deque>
+
+#include "core/error.h"
+#include "core/pose.h"
+
+namespace ieslam {
+
+bool PairwiseOptions::Check(std::string* why) const {
+  auto fail = [why](const std::string& message) {
+    if (why != nullptr) *why = message;
+    return false;
+  };
+  if (step < 1) return fail("step must be >= 1, got " + std::to_string(step));
+  if (min_inliers < 3) return fail("min_inliers must be >= 3");
+  if (!(max_translation_error_m > 0.0) || !(max_rotation_error_deg > 0.0)) {
+    return fail("error limits must be positive");
+  }
+  return true;
+}
+
+double Percentile(std::vector<double> values, double q) {
+  if (values.empty()) return 0.0;
+  std::sort(values.begin(), values.end());
+  const double position = q / 100.0 * (values.size() - 1);
+  const size_t below = static_cast<size_t>(std::floor(position));
+  const size_t above = std::min(values.size() - 1, below + 1);
+  return values[below] + (position - below) * (values[above] - values[below]);
+}
+
+PairwiseReport EvaluatePairwiseRegistration(const Dataset& dataset, const FrontendOptions& frontend,
+                                            const PairwiseOptions& options,
+                                            const std::function<void(int, int)>& progress) {
+  std::string why;
+  if (!options.Check(&why)) throw ConfigError(why);
+  if (!frontend.Check(&why)) throw ConfigError(why);
+  const int n = dataset.size();
+  if (n <= options.step) {
+    throw DataError(dataset.directory() + ": " + std::to_string(n) +
+                    " frames are too few for step " + std::to_string(options.step));
+  }
+  const FrameProcessor processor(dataset.rig(), frontend);
+  PairwiseReport report;
+  std::deque<ProcessedFrame> window;  // frames i .. i+K
+  const int total_pairs = n - options.step;
+  for (int j = 0; j < n; ++j) {
+    window.push_back(processor.Process(dataset.Load(j)));
+    if (static_cast<int>(window.size()) <= options.step) continue;
+    const ProcessedFrame& a = window.front();
+    const ProcessedFrame& b = window.back();
+    PairRecord record;
+    record.frame_a = a.info.index;
+    record.frame_b = b.info.index;
+    if (!a.info.T_w_c_gt || !b.info.T_w_c_gt) {
+      ++report.frames_without_ground_truth;
+      window.pop_front();
+      continue;
+    }
+    const FrameRegistration registration =
+        RegisterFrames(a, b, frontend.matching, frontend.registration);
+    record.matches = static_cast<int>(registration.matches.size());
+    record.inliers = static_cast<int>(registration.result.inliers.size());
+    record.frontend_seconds = b.seconds_extract + b.seconds_lift + registration.seconds_match +
+                              registration.seconds_ransac;
+    record.registered = registration.result.success;
+    record.reason = registration.result.reason;
+    if (record.registered) {
+      const Eigen::Isometry3d T_a_b_gt = a.info.T_w_c_gt->inverse() * *b.info.T_w_c_gt;
+      const Eigen::Isometry3d& T_a_b = registration.result.T_a_b;
+      record.translation_error_m = (T_a_b.translation() - T_a_b_gt.translation()).norm();
+      record.rotation_error_deg =
+          RotationAngleBetween(T_a_b_gt.linear(), T_a_b.linear()) * 180.0 / M_PI;
+      record.success = record.inliers >= options.min_inliers &&
+                       record.translation_error_m < options.max_translation_error_m &&
+                       record.rotation_error_deg < options.max_rotation_error_deg;
+    }
+    report.pairs.push_back(record);
+    window.pop_front();
+    if (progress) progress(static_cast<int>(report.pairs.size()), total_pairs);
+  }
+  if (report.pairs.empty()) {
+    throw DataError(dataset.directory() + ": no frame pair has ground truth to compare with");
+  }
+  std::vector<double> rotation, translation, ms;
+  int successes = 0;
+  for (const PairRecord& record : report.pairs) {
+    ms.push_back(record.frontend_seconds * 1000.0);
+    if (record.success) ++successes;
+    if (!record.registered) continue;
+    rotation.push_back(record.rotation_error_deg);
+    translation.push_back(record.translation_error_m);
+  }
+  report.success_rate = static_cast<double>(successes) / report.pairs.size();
+  report.rotation_error_median_deg = Percentile(rotation, 50);
+  report.translation_error_median_m = Percentile(translation, 50);
+  report.rotation_error_p90_deg = Percentile(rotation, 90);
+  report.translation_error_p90_m = Percentile(translation, 90);
+  report.ms_per_frame = Percentile(ms, 50);
+  return report;
+}
+
+}  // namespace ieslam

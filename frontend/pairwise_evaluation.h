@@ -1,0 +1,60 @@
+// Registration of frame i to frame i+K across a dataset, compared with ground truth: the
+// check users run on their calibration and front-end settings (`ieslam register`).
+#pragma once
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "core/dataset.h"
+#include "frontend/frame_processor.h"
+
+namespace ieslam {
+
+struct PairwiseOptions {
+  int step = 5;  // K
+  // A pair succeeds when registration returns a pose with at least `min_inliers` inliers
+  // whose error against ground truth is below both limits.
+  int min_inliers = 10;
+  double max_translation_error_m = 0.05;
+  double max_rotation_error_deg = 2.0;
+
+  bool Check(std::string* why) const;
+};
+
+struct PairRecord {
+  int frame_a = 0;
+  int frame_b = 0;
+  bool registered = false;  // the registrar returned a pose
+  bool success = false;     // ... and it is within the error limits
+  std::string reason;       // the registrar's refusal, when !registered
+  int matches = 0;
+  int inliers = 0;
+  double translation_error_m = 0.0;
+  double rotation_error_deg = 0.0;
+  double frontend_seconds = 0.0;  // frame b's extraction + lifting + this pair's match + RANSAC
+};
+
+struct PairwiseReport {
+  std::vector<PairRecord> pairs;
+  int frames_without_ground_truth = 0;
+  double success_rate = 0.0;
+  // Over the registered pairs.
+  double rotation_error_median_deg = 0.0;
+  double translation_error_median_m = 0.0;
+  double rotation_error_p90_deg = 0.0;
+  double translation_error_p90_m = 0.0;
+  // Median over pairs of frontend_seconds, in milliseconds.
+  double ms_per_frame = 0.0;
+};
+
+// Processes every frame once (a sliding window of K+1 processed frames is kept) and
+// registers i -> i+K. `progress` (optional) is called after each pair with (done, total).
+PairwiseReport EvaluatePairwiseRegistration(
+    const Dataset& dataset, const FrontendOptions& frontend, const PairwiseOptions& options,
+    const std::function<void(int, int)>& progress = nullptr);
+
+// Linear-interpolation percentile (numpy's default), q in [0, 100]; 0 for an empty list.
+double Percentile(std::vector<double> values, double q);
+
+}  // namespace ieslam

@@ -1,0 +1,134 @@
+#include "frontend/registration.h"
+
+#include <functional>
+#include <memory>
+
+#include <Eigen/Eigenvalues>
+#include <glog/logging.h>
+#include <opengv/point_cloud/PointCloudAdapter.hpp>
+#include <opengv/point_cloud/methods.hpp>
+#include <opengv/sac/Ransac.hpp>
+#include <opengv/sac_problems/point_cloud/PointCloudSacProblem.hpp>
+
+namespace ieslam {
+namespace {
+
+using opengv::sac_problems::point_cloud::PointCloudSacProblem;
+
+// OpenGV's problem seeds its generator with the clock, or with a fixed 12345 when built
+// with randomSeed = false; this one takes the caller's seed.
+class SeededPointCloudProblem : public PointCloudSacProblem {
+ public:
+  SeededPointCloudProblem(opengv::point_cloud::PointCloudAdapterBase& adapter, uint32_t seed)
+      : PointCloudSacProblem(adapter, /*randomSeed=*/false) {
+    rng_alg_.seed(seed);
+    rng_gen_.reset(new std::function<int()>(std::bind(*rng_dist_, rng_alg_)));
+  }
+};
+
+std::vector<int> InliersOf(const Eigen::Isometry3d& T_a_b, const std::vector<Eigen::Vector3d>& a,
+                           const std::vector<Eigen::Vector3d>& b, double threshold, double* rms) {
+  std::vector<int> inliers;
+  double sum = 0.0;
+  for (size_t i = 0; i < a.size(); ++i) {
+    const double e2 = (a[i] - T_a_b * b[i]).squaredNorm();
+    if (e2 < threshold * threshold) {
+      inliers.push_back(static_cast<int>(i));
+      sum += e2;
+    }
+  }
+  *rms = inliers.empty() ? 0.0 : std::sqrt(sum / inliers.size());
+  return inliers;
+}
+
+// sqrt of the second-largest eigenvalue of the scatter of the selected points.
+double Spread(const std::vector<Eigen::Vector3d>& points, const std::vector<int>& selected) {
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (int i : selected) mean += points[i];
+  mean /= selected.size();
+  Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
+  for (int i : selected) scatter += (points[i] - mean) * (points[i] - mean).transpose();
+  scatter /= selected.size();
+  const Eigen::Vector3d eigenvalues = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(scatter).eigenvalues();
+  return std::sqrt(std::max(0.0, eigenvalues[1]));  // ascending order
+}
+
+}  // namespace
+
+bool RegistrationOptions::Check(std::string* why) const {
+  auto fail = [why](const std::string& message) {
+    if (why != nullptr) *why = message;
+    return false;
+  };
+  if (!(inlier_threshold_m > 0.0)) return fail("registration.inlier_threshold_m must be > 0");
+  if (max_iterations < 1) return fail("registration.max_iterations must be >= 1");
+  if (!(probability > 0.0 && probability < 1.0)) return fail("registration.probability must be in (0, 1)");
+  if (min_inliers < 3) return fail("registration.min_inliers must be >= 3");
+  if (!(min_spread_m >= 0.0)) return fail("registration.min_spread_m must be >= 0");
+  if (max_refinements < 0) return fail("registration.max_refinements must be >= 0");
+  return true;
+}
+
+RegistrationResult RegisterPointSets(const std::vector<Eigen::Vector3d>& points_a,
+                                     const std::vector<Eigen::Vector3d>& points_b,
+                                     const RegistrationOptions& options) {
+  CHECK_EQ(points_a.size(), points_b.size());
+  RegistrationResult result;
+  const int n = static_cast<int>(points_a.size());
+  if (n < std::max(3, options.min_inliers)) {
+    result.reason = "too few correspondences: " + std::to_string(n) + " < " +
+                    std::to_string(std::max(3, options.min_inliers));
+    return result;
+  }
+  opengv::points_t a(points_a.begin(), points_a.end()), b(points_b.begin(), points_b.end());
+  opengv::point_cloud::PointCloudAdapter adapter(a, b);
+  auto problem = std::make_shared<SeededPointCloudProblem>(adapter, options.seed);
+  opengv::sac::Ransac<PointCloudSacProblem> ransac;
+  ransac.sac_model_ = problem;
+  ransac.threshold_ = options.inlier_threshold_m;
+  ransac.max_iterations_ = options.max_iterations;
+  ransac.probability_ = options.probability;
+  if (!ransac.computeModel()) {
+    result.reason = "RANSAC found no model";
+    return result;
+  }
+  result.ransac_iterations = ransac.iterations_;
+
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.matrix().topRows<3>() = ransac.model_coefficients_;
+  double rms = 0.0;
+  std::vector<int> inliers = InliersOf(T, points_a, points_b, options.inlier_threshold_m, &rms);
+  // Least-squares refit (Arun) on the inliers until the set is stable.
+  for (int round = 0; round < options.max_refinements && inliers.size() >= 3; ++round) {
+    Eigen::Isometry3d refit = Eigen::Isometry3d::Identity();
+    refit.matrix().topRows<3>() = opengv::point_cloud::threept_arun(adapter, inliers);
+    double refit_rms = 0.0;
+    std::vector<int> refit_inliers =
+        InliersOf(refit, points_a, points_b, options.inlier_threshold_m, &refit_rms);
+    if (refit_inliers.size() < inliers.size()) break;  // the refit made things worse
+    T = refit;
+    rms = refit_rms;
+    const bool stable = refit_inliers == inliers;
+    inliers = std::move(refit_inliers);
+    if (stable) break;
+  }
+  result.T_a_b = T;
+  result.inliers = inliers;
+  result.inlier_ratio = static_cast<double>(inliers.size()) / n;
+  result.rms_m = rms;
+  if (static_cast<int>(inliers.size()) < options.min_inliers) {
+    result.reason = "too few inliers: " + std::to_string(inliers.size()) + " < " +
+                    std::to_string(options.min_inliers);
+    return result;
+  }
+  const double spread = Spread(points_a, inliers);
+  if (spread < options.min_spread_m) {
+    result.reason = "degenerate inliers (collinear or on a tiny patch): spread " +
+                    std::to_string(spread) + " m < " + std::to_string(options.min_spread_m) + " m";
+    return result;
+  }
+  result.success = true;
+  return result;
+}
+
+}  // namespace ieslam
