@@ -1,0 +1,186 @@
+// The extended information filter with delayed states of Zhou et al. (2008), §V-B.
+//
+// The state is every pose added to the filter (6-vector, ZYX Euler, camera-to-world) and
+// every 3-D feature, in the global frame. There is no motion model and no prediction step:
+// a pose enters with its observations (eq. 9, linearised once at the current estimate) and
+// the state is recovered by solving I X = i (eq. 10). The information matrix therefore stays
+// sparse — a pose couples only with the features it observes — and is factored with a
+// sparse Cholesky (CHOLMOD), from which log det I and marginal covariances come without
+// ever inverting I.
+//
+// The filter also scores candidate frames for the information-efficient selection (§V-A):
+// the exact gain log det I(k+1) - log det I(k) of METHOD.md §4, in O(|S|^3) per candidate
+// once the joint covariance of the features the candidates observe has been recovered.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/SparseCore>
+
+#include "backend/sparse_information.h"
+#include "core/camera.h"
+#include "core/observation.h"
+#include "core/pose.h"
+
+namespace ieslam {
+
+struct InformationFilterOptions {
+  // Diagonal of the first pose's information block: the first pose is the origin.
+  double anchor_information = 1e10;
+  FillReducingOrdering ordering = FillReducingOrdering::kAmd;
+  // A new pose is constrained only by its observations of features already in the map;
+  // with (u, v, d) observations three features in general position determine it.
+  int min_known_features = 3;
+  // A feature closer than this to the camera plane (p_L.z) cannot be linearised.
+  double min_depth_m = 1e-3;
+
+  bool Check(std::string* why) const;
+};
+
+// A pose (by frame id) or a feature (by feature id), for marginal covariance queries.
+struct VariableRef {
+  enum class Kind { kPose, kFeature };
+  Kind kind = Kind::kPose;
+  int64_t id = -1;
+
+  static VariableRef Pose(int frame_id) { return {Kind::kPose, frame_id}; }
+  static VariableRef Feature(int64_t feature_id) { return {Kind::kFeature, feature_id}; }
+};
+
+// The joint marginal covariance of a set of features, recovered once from the factor and
+// then shared by every candidate of a look-ahead buffer.
+struct FeatureCovariance {
+  std::vector<int64_t> feature_ids;
+  std::unordered_map<int64_t, int> index;  // feature id -> position in feature_ids
+  Eigen::MatrixXd covariance;              // 3 * feature_ids.size() square
+};
+
+// The three terms of an information gain (METHOD.md §4), in nats: the new features' own
+// blocks, the new pose (log det C), and what the candidate tells about the features already
+// in the map, log det(I + P_SS (A - B C^-1 B^T)). The first two are nearly the same for every
+// candidate of a buffer under the equal-dimension rule; the map term is what sets them apart.
+struct GainTerms {
+  double new_features = 0.0;
+  double pose = 0.0;
+  double map = 0.0;
+  double total() const { return new_features + pose + map; }
+};
+
+// Seconds spent in the last AddPose / AddFirstPose.
+struct InformationFilterTimings {
+  double linearize_s = 0.0;  // Jacobians and assembly of the new blocks
+  double analyze_s = 0.0;    // symbolic analysis (the pattern grows with each pose)
+  double factorize_s = 0.0;
+  double solve_s = 0.0;      // recovery, I X = i
+  double total_s = 0.0;
+};
+
+// Throws DataError naming the frame (frame_id < 0: a candidate) when a feature is observed
+// twice, an observation is not finite or has no positive range, or a Q is not positive
+// definite.
+void ValidateObservations(int frame_id, const std::vector<FeatureObservation>& observations);
+
+class InformationFilter {
+ public:
+  InformationFilter(const InformationFilterOptions& options, const PinholeCamera& camera);
+  ~InformationFilter();
+  InformationFilter(const InformationFilter&) = delete;
+  InformationFilter& operator=(const InformationFilter&) = delete;
+
+  // The first pose, anchored with options.anchor_information, and the features it sees
+  // (initialised from their observations). Called once, before any AddPose.
+  void AddFirstPose(int frame_id, const Vector6d& T_w_c,
+                    const std::vector<FeatureObservation>& observations);
+
+  // Appends a pose (initialised from the caller's registration estimate), initialises the
+  // features never seen before from their observation at that pose, applies the EIF update
+  // and recovers the state. Throws DataError naming the frame when the frame id is taken,
+  // an observation is malformed, fewer than options.min_known_features known features are
+  // observed, or the updated matrix is not positive definite; the filter is then unchanged.
+  void AddPose(int frame_id, const Vector6d& T_w_c_initial,
+               const std::vector<FeatureObservation>& observations);
+
+  bool HasPose(int frame_id) const { return pose_offset_.count(frame_id) > 0; }
+  bool HasFeature(int64_t feature_id) const { return feature_offset_.count(feature_id) > 0; }
+  Vector6d pose(int frame_id) const;
+  Eigen::Vector3d feature(int64_t feature_id) const;
+
+  int state_dim() const { return static_cast<int>(state_.size()); }
+  int num_poses() const { return static_cast<int>(frame_ids_.size()); }
+  int num_features() const { return static_cast<int>(feature_ids_.size()); }
+  // In the order added.
+  const std::vector<int>& frame_ids() const { return frame_ids_; }
+  const std::vector<int64_t>& feature_ids() const { return feature_ids_; }
+  // Where a variable's block starts in state() and information().
+  int StateIndex(const VariableRef& variable) const;
+
+  const Eigen::VectorXd& state() const { return state_; }
+  const Eigen::VectorXd& information_vector() const { return info_vector_; }
+  // The information matrix: its stored upper triangle (no copy), and both triangles.
+  Eigen::Map<const Eigen::SparseMatrix<double>> information_upper() const;
+  Eigen::SparseMatrix<double> Information() const;
+
+  double LogDetInformation() const;
+  Matrix6d PoseCovariance(int frame_id) const;
+  // Joint covariance of the listed variables, blocks in the listed order (6 rows for a
+  // pose, 3 for a feature), from solves against their columns only.
+  Eigen::MatrixXd MarginalCovariance(const std::vector<VariableRef>& variables) const;
+
+  // --- Information gain for the frame selector (METHOD.md §4). ---
+  // Joint covariance of the known features among `feature_ids` (unknown ids are skipped).
+  FeatureCovariance JointFeatureCovariance(const std::vector<int64_t>& feature_ids) const;
+  // Features among `observations` not yet in the map.
+  int CountNewFeatures(const std::vector<FeatureObservation>& observations) const;
+  // log det I(k+1) - log det I(k) for adding a pose at T_w_c_candidate with these
+  // observations, counting only the first num_new_features_to_count new features (the
+  // equal-dimension rule; a negative value counts all). `known` must cover every known
+  // feature observed. Returns -infinity when the observations cannot determine the pose.
+  double InformationGain(const Vector6d& T_w_c_candidate,
+                         const std::vector<FeatureObservation>& observations,
+                         int num_new_features_to_count, const FeatureCovariance& known,
+                         GainTerms* terms = nullptr) const;
+  // The paper's way: log det of the explicitly expanded information matrix (with the same
+  // counting rule), by a sparse factorisation of the whole expanded matrix. For checks and
+  // for timing comparisons; -infinity when it is not positive definite.
+  double LogDetExpandedInformation(const Vector6d& T_w_c_candidate,
+                                   const std::vector<FeatureObservation>& observations,
+                                   int num_new_features_to_count) const;
+
+  const InformationFilterTimings& last_timings() const { return timings_; }
+  int64_t FactorNonzeros() const { return cholesky_->FactorNonzeros(); }
+  const InformationFilterOptions& options() const { return options_; }
+
+ private:
+  struct Linearization;
+
+  // Jacobians at the current estimate (new pose and new features at their initial values).
+  Linearization Linearize(int frame_id, const Vector6d& T_w_c,
+                          const std::vector<FeatureObservation>& observations,
+                          int max_new_features) const;
+  // Appends the new features' and the pose's columns and adds to the re-observed features'
+  // diagonal blocks. `pose_prior` is added to the pose's diagonal block (the anchor).
+  void AppendToMatrix(const Linearization& lin, double pose_prior,
+                      UpperColumnStorage* matrix) const;
+  void Update(int frame_id, const Vector6d& T_w_c,
+              const std::vector<FeatureObservation>& observations, bool anchor);
+  std::vector<int> ScalarIndices(const std::vector<VariableRef>& variables) const;
+
+  InformationFilterOptions options_;
+  PinholeCamera camera_;
+  UpperColumnStorage matrix_;
+  std::unique_ptr<SparseCholesky> cholesky_;
+  Eigen::VectorXd info_vector_;
+  Eigen::VectorXd state_;
+  std::vector<int> frame_ids_;
+  std::vector<int64_t> feature_ids_;
+  std::unordered_map<int, int> pose_offset_;
+  std::unordered_map<int64_t, int> feature_offset_;
+  InformationFilterTimings timings_;
+};
+
+}  // namespace ieslam

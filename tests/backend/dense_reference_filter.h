@@ -1,0 +1,151 @@
+// A dense EIF used only by tests as the reference for the sparse InformationFilter:
+// the paper's eqs. 9-10 written as plainly as possible, with full Jacobian rows H over the
+// whole state and dense Eigen algebra. Its variable order (each pose, then its new
+// features) differs from the sparse filter's on purpose; compare through the ids.
+#pragma once
+
+#include <cmath>
+#include <cstdint>
+#include <map>
+#include <vector>
+
+#include <Eigen/Cholesky>
+#include <Eigen/Core>
+#include <Eigen/LU>
+
+#include "core/camera.h"
+#include "core/observation.h"
+#include "core/pose.h"
+
+namespace ieslam {
+namespace testing {
+
+class DenseReferenceFilter {
+ public:
+  DenseReferenceFilter(double anchor_information, const PinholeCamera& camera)
+      : anchor_(anchor_information), camera_(camera) {}
+  DenseReferenceFilter(const DenseReferenceFilter&) = delete;
+  DenseReferenceFilter& operator=(const DenseReferenceFilter&) = delete;
+
+  void AddFirstPose(int frame_id, const Vector6d& T_w_c,
+                    const std::vector<FeatureObservation>& observations) {
+    Add(frame_id, T_w_c, observations, true);
+  }
+  void AddPose(int frame_id, const Vector6d& T_w_c,
+               const std::vector<FeatureObservation>& observations) {
+    Add(frame_id, T_w_c, observations, false);
+  }
+
+  Vector6d pose(int frame_id) const { return X_.segment<6>(poses_.at(frame_id)); }
+  Eigen::Vector3d feature(int64_t id) const { return X_.segment<3>(features_.at(id)); }
+  bool HasFeature(int64_t id) const { return features_.count(id) > 0; }
+  int state_dim() const { return static_cast<int>(X_.size()); }
+  const Eigen::MatrixXd& information() const { return I_; }
+  int PoseIndex(int frame_id) const { return poses_.at(frame_id); }
+  int FeatureIndex(int64_t id) const { return features_.at(id); }
+
+  double LogDetInformation() const { return LogDet(I_); }
+
+  // Rows/columns `indices` of the explicit inverse.
+  Eigen::MatrixXd CovarianceOf(const std::vector<int>& indices) const {
+    const Eigen::MatrixXd P = I_.inverse();
+    Eigen::MatrixXd result(indices.size(), indices.size());
+    for (size_t r = 0; r < indices.size(); ++r) {
+      for (size_t c = 0; c < indices.size(); ++c) result(r, c) = P(indices[r], indices[c]);
+    }
+    return result;
+  }
+
+  // The paper's gain: log det of the explicitly expanded matrix, the candidate's first
+  // `num_new` new features counted.
+  double LogDetExpanded(const Vector6d& T_w_c, const std::vector<FeatureObservation>& observations,
+                        int num_new) const {
+    Eigen::MatrixXd I = I_;
+    Eigen::VectorXd X = X_;
+    std::map<int64_t, int> features = features_;
+    const int pose_index = Grow(&I, &X, T_w_c);
+    int counted = 0;
+    for (const FeatureObservation& obs : observations) {
+      if (features.count(obs.feature_id) == 0) {
+        if (counted == num_new) continue;
+        ++counted;
+        features[obs.feature_id] = Grow(&I, &X, ObservationToWorld(T_w_c, obs.z, camera_));
+      }
+      Eigen::MatrixXd H;
+      Row(X, pose_index, features.at(obs.feature_id), &H);
+      I += H.transpose() * obs.Q.inverse() * H;
+    }
+    return LogDet(I);
+  }
+
+ private:
+  static double LogDet(const Eigen::MatrixXd& M) {
+    const Eigen::LLT<Eigen::MatrixXd> llt(M);
+    return 2.0 * llt.matrixLLT().diagonal().array().log().sum();
+  }
+
+  // Appends a variable initialised to `value` with zero information; returns its index.
+  static int Grow(Eigen::MatrixXd* I, Eigen::VectorXd* X, const Eigen::VectorXd& value) {
+    const int index = static_cast<int>(X->size());
+    const int n = index + static_cast<int>(value.size());
+    I->conservativeResize(n, n);
+    I->rightCols(value.size()).setZero();
+    I->bottomRows(value.size()).setZero();
+    X->conservativeResize(n);
+    X->tail(value.size()) = value;
+    return index;
+  }
+
+  // z = h(X) and the full-width Jacobian row block H of one observation.
+  Eigen::Vector3d Row(const Eigen::VectorXd& X, int pose_index, int feature_index,
+                      Eigen::MatrixXd* H) const {
+    Matrix36d J_p;
+    Eigen::Matrix3d J_f;
+    const Eigen::Vector3d h = PredictObservation(X.segment<6>(pose_index),
+                                                 X.segment<3>(feature_index), camera_, &J_p, &J_f);
+    *H = Eigen::MatrixXd::Zero(3, X.size());
+    H->middleCols<6>(pose_index) = J_p;
+    H->middleCols<3>(feature_index) = J_f;
+    return h;
+  }
+
+  void Add(int frame_id, const Vector6d& T_w_c, const std::vector<FeatureObservation>& observations,
+           bool anchor) {
+    const int pose_index = Grow(&I_, &X_, T_w_c);
+    i_.conservativeResize(X_.size());
+    i_.tail<6>().setZero();
+    poses_[frame_id] = pose_index;
+    if (anchor) {
+      I_.block<6, 6>(pose_index, pose_index) += anchor_ * Matrix6d::Identity();
+      i_.tail<6>() += anchor_ * T_w_c;
+    }
+    for (const FeatureObservation& obs : observations) {
+      if (!HasFeature(obs.feature_id)) {
+        features_[obs.feature_id] = Grow(&I_, &X_, ObservationToWorld(T_w_c, obs.z, camera_));
+        i_.conservativeResize(X_.size());
+        i_.tail<3>().setZero();
+      }
+    }
+    // Eq. 9 at X(k): every observation linearised at the estimate before this update.
+    const Eigen::VectorXd X_k = X_;
+    for (const FeatureObservation& obs : observations) {
+      Eigen::MatrixXd H;
+      const Eigen::Vector3d h = Row(X_k, pose_index, features_.at(obs.feature_id), &H);
+      const Eigen::Matrix3d W = obs.Q.inverse();
+      I_ += H.transpose() * W * H;
+      i_ += H.transpose() * W * (obs.z - h + H * X_k);
+    }
+    X_ = I_.ldlt().solve(i_);  // eq. 10
+  }
+
+  double anchor_;
+  PinholeCamera camera_;
+  Eigen::MatrixXd I_;
+  Eigen::VectorXd i_;
+  Eigen::VectorXd X_;
+  std::map<int, int> poses_;
+  std::map<int64_t, int> features_;
+};
+
+}  // namespace testing
+}  // namespace ieslam

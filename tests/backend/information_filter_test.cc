@@ -1,0 +1,348 @@
+#include "backend/information_filter.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <random>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "backend/dense_reference_filter.h"
+#include "core/error.h"
+
+namespace ieslam {
+namespace {
+
+// A small self-contained scene: a camera sliding sideways (and a little up and forward)
+// past a box of points in front of it, with a little random rotation at each pose.
+struct Scene {
+  PinholeCamera camera;
+  std::vector<int> frame_ids;
+  std::vector<Vector6d> poses;  // true T_w_c
+  std::vector<int64_t> feature_ids;
+  std::vector<Eigen::Vector3d> points;  // true p_w
+};
+
+PinholeCamera TestCamera() {
+  PinholeCamera camera;
+  camera.width = 640;
+  camera.height = 480;
+  camera.fx = camera.fy = 500.0;
+  camera.cx = 319.5;
+  camera.cy = 239.5;
+  return camera;
+}
+
+Scene MakeScene(int num_poses, int num_points, std::mt19937* rng) {
+  Scene scene;
+  scene.camera = TestCamera();
+  std::uniform_real_distribution<double> x(-3.0, 3.0 + 0.6 * num_poses), y(-2.5, 2.5),
+      z(3.0, 7.0), small(-0.08, 0.08);
+  for (int j = 0; j < num_points; ++j) {
+    scene.feature_ids.push_back(1000 + 7 * j);  // sparse, stable ids
+    scene.points.emplace_back(x(*rng), y(*rng), z(*rng));
+  }
+  for (int i = 0; i < num_poses; ++i) {
+    scene.frame_ids.push_back(10 * i + 3);
+    Vector6d pose;
+    pose << 0.6 * i + small(*rng), small(*rng), 0.05 * i + small(*rng), small(*rng),
+        small(*rng), small(*rng);
+    scene.poses.push_back(pose);
+  }
+  return scene;
+}
+
+// The features pose i sees, with noise of sigma 0.5 px and 5 mm + 0.5% of the range.
+std::vector<FeatureObservation> Observe(const Scene& scene, int i, bool noisy, std::mt19937* rng) {
+  std::normal_distribution<double> normal(0.0, 1.0);
+  std::vector<FeatureObservation> observations;
+  for (size_t j = 0; j < scene.points.size(); ++j) {
+    if (WorldToCamera(scene.poses[i], scene.points[j]).z() < 0.5) continue;
+    const Eigen::Vector3d z = PredictObservation(scene.poses[i], scene.points[j], scene.camera);
+    if (!scene.camera.InImage(z.head<2>())) continue;
+    FeatureObservation obs;
+    obs.feature_id = scene.feature_ids[j];
+    const Eigen::Vector3d sigma(0.5, 0.5, 0.005 + 0.005 * z.z());
+    obs.Q = sigma.cwiseAbs2().asDiagonal();
+    obs.z = z;
+    if (noisy) obs.z += sigma.cwiseProduct(Eigen::Vector3d(normal(*rng), normal(*rng), normal(*rng)));
+    observations.push_back(obs);
+  }
+  return observations;
+}
+
+Vector6d Perturb(const Vector6d& pose, double metres, double radians, std::mt19937* rng) {
+  std::normal_distribution<double> normal(0.0, 1.0);
+  Vector6d perturbed = pose;
+  for (int k = 0; k < 3; ++k) perturbed[k] += metres * normal(*rng);
+  for (int k = 3; k < 6; ++k) perturbed[k] += radians * normal(*rng);
+  return perturbed;
+}
+
+InformationFilterOptions DefaultOptions() { return InformationFilterOptions(); }
+
+TEST(InformationFilterTest, OptionsCheckRejectsBadValues) {
+  InformationFilterOptions options;
+  std::string why;
+  EXPECT_TRUE(options.Check(&why)) << why;
+  options.anchor_information = 0.0;
+  EXPECT_FALSE(options.Check(&why));
+  EXPECT_NE(why.find("anchor_information"), std::string::npos);
+  options = InformationFilterOptions();
+  options.min_known_features = 2;
+  EXPECT_FALSE(options.Check(&why));
+  EXPECT_THROW(InformationFilter(options, TestCamera()), ConfigError);
+}
+
+TEST(InformationFilterTest, NoiseFreeObservationsRecoverTheExactScene) {
+  std::mt19937 rng(1);
+  const Scene scene = MakeScene(8, 60, &rng);
+  InformationFilter filter(DefaultOptions(), scene.camera);
+  filter.AddFirstPose(scene.frame_ids[0], scene.poses[0], Observe(scene, 0, false, &rng));
+  for (int i = 1; i < 8; ++i) {
+    filter.AddPose(scene.frame_ids[i], scene.poses[i], Observe(scene, i, false, &rng));
+  }
+  for (int i = 0; i < 8; ++i) {
+    EXPECT_LT((filter.pose(scene.frame_ids[i]) - scene.poses[i]).norm(), 1e-6) << "pose " << i;
+  }
+  int seen = 0;
+  for (size_t j = 0; j < scene.points.size(); ++j) {
+    if (!filter.HasFeature(scene.feature_ids[j])) continue;
+    ++seen;
+    EXPECT_LT((filter.feature(scene.feature_ids[j]) - scene.points[j]).norm(), 1e-6);
+  }
+  EXPECT_GT(seen, 30);
+  EXPECT_EQ(filter.state_dim(), 6 * 8 + 3 * seen);
+  EXPECT_EQ(filter.num_features(), seen);
+}
+
+TEST(InformationFilterTest, LinearisedUpdateCorrectsAPerturbedInitialPose) {
+  // Only one linearisation per pose (eq. 9), so the correction is first order: a 2 mm /
+  // 1 mrad registration error leaves a residual error two orders of magnitude smaller.
+  std::mt19937 rng(2);
+  const Scene scene = MakeScene(6, 60, &rng);
+  InformationFilter filter(DefaultOptions(), scene.camera);
+  filter.AddFirstPose(scene.frame_ids[0], scene.poses[0], Observe(scene, 0, false, &rng));
+  for (int i = 1; i < 6; ++i) {
+    const Vector6d initial = Perturb(scene.poses[i], 0.002, 0.001, &rng);
+    filter.AddPose(scene.frame_ids[i], initial, Observe(scene, i, false, &rng));
+    EXPECT_LT((filter.pose(scene.frame_ids[i]) - scene.poses[i]).norm(),
+              0.02 * (initial - scene.poses[i]).norm())
+        << "pose " << i;
+  }
+}
+
+TEST(InformationFilterTest, IdsAreStableAndStateIndicesConsistent) {
+  std::mt19937 rng(3);
+  const Scene scene = MakeScene(5, 50, &rng);
+  InformationFilter filter(DefaultOptions(), scene.camera);
+  filter.AddFirstPose(scene.frame_ids[0], scene.poses[0], Observe(scene, 0, false, &rng));
+  const std::vector<int64_t> first_features = filter.feature_ids();
+  for (int i = 1; i < 5; ++i) {
+    filter.AddPose(scene.frame_ids[i], scene.poses[i], Observe(scene, i, false, &rng));
+  }
+  EXPECT_EQ(filter.frame_ids(), std::vector<int>(scene.frame_ids.begin(), scene.frame_ids.end()));
+  ASSERT_GE(filter.feature_ids().size(), first_features.size());
+  EXPECT_TRUE(std::equal(first_features.begin(), first_features.end(),
+                         filter.feature_ids().begin()))
+      << "features keep their place in the order added";
+  // Every id maps to its own block, and the blocks tile the state exactly.
+  std::vector<int> covered(filter.state_dim(), 0);
+  for (int id : filter.frame_ids()) {
+    const int index = filter.StateIndex(VariableRef::Pose(id));
+    for (int k = 0; k < 6; ++k) ++covered[index + k];
+    EXPECT_EQ(filter.state().segment<6>(index), filter.pose(id));
+  }
+  for (int64_t id : filter.feature_ids()) {
+    const int index = filter.StateIndex(VariableRef::Feature(id));
+    for (int k = 0; k < 3; ++k) ++covered[index + k];
+  }
+  EXPECT_EQ(std::count(covered.begin(), covered.end(), 1), filter.state_dim());
+}
+
+TEST(InformationFilterTest, TooFewKnownFeaturesFailsCleanly) {
+  std::mt19937 rng(4);
+  const Scene scene = MakeScene(3, 50, &rng);
+  InformationFilter filter(DefaultOptions(), scene.camera);
+  filter.AddFirstPose(scene.frame_ids[0], scene.poses[0], Observe(scene, 0, false, &rng));
+  filter.AddPose(scene.frame_ids[1], scene.poses[1], Observe(scene, 1, false, &rng));
+  const int dim = filter.state_dim();
+  const double log_det = filter.LogDetInformation();
+  const Eigen::VectorXd state = filter.state();
+
+  // Two known features and a few new ones.
+  std::vector<FeatureObservation> observations;
+  for (const FeatureObservation& obs : Observe(scene, 2, false, &rng)) {
+    const bool known = filter.HasFeature(obs.feature_id);
+    const int known_so_far = static_cast<int>(std::count_if(
+        observations.begin(), observations.end(),
+        [&](const FeatureObservation& o) { return filter.HasFeature(o.feature_id); }));
+    if (!known || known_so_far < 2) observations.push_back(obs);
+  }
+  try {
+    filter.AddPose(77, scene.poses[2], observations);
+    FAIL() << "expected DataError";
+  } catch (const DataError& error) {
+    EXPECT_NE(std::string(error.what()).find("frame 77"), std::string::npos) << error.what();
+    EXPECT_NE(std::string(error.what()).find("observes 2 features"), std::string::npos)
+        << error.what();
+  }
+  EXPECT_EQ(filter.state_dim(), dim);
+  EXPECT_EQ(filter.num_poses(), 2);
+  EXPECT_FALSE(filter.HasPose(77));
+  EXPECT_EQ(filter.LogDetInformation(), log_det);
+  EXPECT_EQ(filter.state(), state);
+
+  // A taken frame id and a doubly observed feature are refused too.
+  EXPECT_THROW(filter.AddPose(scene.frame_ids[1], scene.poses[2], Observe(scene, 2, false, &rng)),
+               DataError);
+  std::vector<FeatureObservation> doubled = Observe(scene, 2, false, &rng);
+  doubled.push_back(doubled.front());
+  EXPECT_THROW(filter.AddPose(78, scene.poses[2], doubled), DataError);
+  // And the filter still works afterwards.
+  filter.AddPose(scene.frame_ids[2], scene.poses[2], Observe(scene, 2, false, &rng));
+  EXPECT_LT((filter.pose(scene.frame_ids[2]) - scene.poses[2]).norm(), 1e-6);
+}
+
+TEST(InformationFilterTest, InformationMatrixCouplesPosesOnlyThroughFeatures) {
+  std::mt19937 rng(5);
+  const Scene scene = MakeScene(4, 40, &rng);
+  InformationFilter filter(DefaultOptions(), scene.camera);
+  filter.AddFirstPose(scene.frame_ids[0], scene.poses[0], Observe(scene, 0, true, &rng));
+  for (int i = 1; i < 4; ++i) {
+    filter.AddPose(scene.frame_ids[i], scene.poses[i], Observe(scene, i, true, &rng));
+  }
+  const Eigen::MatrixXd I = Eigen::MatrixXd(filter.Information());
+  EXPECT_LT((I - I.transpose()).norm(), 1e-12 * I.norm());
+  for (int a : filter.frame_ids()) {
+    for (int b : filter.frame_ids()) {
+      if (a == b) continue;
+      const int row = filter.StateIndex(VariableRef::Pose(a));
+      const int col = filter.StateIndex(VariableRef::Pose(b));
+      EXPECT_EQ(I.block(row, col, 6, 6).norm(), 0.0) << "frames " << a << ", " << b;
+    }
+  }
+  const int64_t f0 = filter.feature_ids()[0], f1 = filter.feature_ids()[1];
+  const int row = filter.StateIndex(VariableRef::Feature(f0));
+  const int col = filter.StateIndex(VariableRef::Feature(f1));
+  EXPECT_EQ(I.block(row, col, 3, 3).norm(), 0.0);
+}
+
+// Runs the same noisy sequence through the sparse filter and the dense reference.
+void RunBoth(const Scene& scene, int num_poses, std::mt19937* rng, InformationFilter* sparse,
+             testing::DenseReferenceFilter* dense) {
+  const std::vector<FeatureObservation> first = Observe(scene, 0, true, rng);
+  sparse->AddFirstPose(scene.frame_ids[0], scene.poses[0], first);
+  dense->AddFirstPose(scene.frame_ids[0], scene.poses[0], first);
+  for (int i = 1; i < num_poses; ++i) {
+    const std::vector<FeatureObservation> observations = Observe(scene, i, true, rng);
+    const Vector6d initial = Perturb(scene.poses[i], 0.02, 0.01, rng);
+    sparse->AddPose(scene.frame_ids[i], initial, observations);
+    dense->AddPose(scene.frame_ids[i], initial, observations);
+  }
+}
+
+double RelativeDifference(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
+  return (a - b).norm() / b.norm();
+}
+
+TEST(InformationFilterTest, AgreesWithTheDenseReferenceFilter) {
+  for (const unsigned seed : {6u, 7u, 8u}) {
+    std::mt19937 rng(seed);
+    const int num_poses = 5 + static_cast<int>(seed % 3) * 2;
+    const Scene scene = MakeScene(num_poses, 40 + 10 * static_cast<int>(seed % 3), &rng);
+    InformationFilter sparse(DefaultOptions(), scene.camera);
+    testing::DenseReferenceFilter dense(DefaultOptions().anchor_information, scene.camera);
+    RunBoth(scene, num_poses, &rng, &sparse, &dense);
+    ASSERT_EQ(sparse.state_dim(), dense.state_dim());
+    for (int id : sparse.frame_ids()) {
+      EXPECT_LT((sparse.pose(id) - dense.pose(id)).norm(), 1e-9) << "frame " << id;
+      EXPECT_LT(RelativeDifference(sparse.PoseCovariance(id),
+                                   dense.CovarianceOf({dense.PoseIndex(id), dense.PoseIndex(id) + 1,
+                                                       dense.PoseIndex(id) + 2, dense.PoseIndex(id) + 3,
+                                                       dense.PoseIndex(id) + 4, dense.PoseIndex(id) + 5})),
+                1e-9) << "frame " << id;
+    }
+    for (int64_t id : sparse.feature_ids()) {
+      EXPECT_LT((sparse.feature(id) - dense.feature(id)).norm(), 1e-9) << "feature " << id;
+    }
+    EXPECT_NEAR(sparse.LogDetInformation(), dense.LogDetInformation(),
+                1e-9 * std::abs(dense.LogDetInformation()));
+    // A joint marginal of the last pose and a feature, blocks in the order asked.
+    const int last = sparse.frame_ids().back();
+    const int64_t feature = sparse.feature_ids()[sparse.feature_ids().size() / 2];
+    std::vector<int> indices;
+    for (int k = 0; k < 6; ++k) indices.push_back(dense.PoseIndex(last) + k);
+    for (int k = 0; k < 3; ++k) indices.push_back(dense.FeatureIndex(feature) + k);
+    EXPECT_LT(RelativeDifference(
+                  sparse.MarginalCovariance({VariableRef::Pose(last), VariableRef::Feature(feature)}),
+                  dense.CovarianceOf(indices)),
+              1e-9);
+  }
+}
+
+// Candidates: the next poses of the scene, seen from perturbed registrations.
+TEST(InformationFilterTest, FastGainEqualsLogDetOfTheExpandedMatrix) {
+  for (const unsigned seed : {9u, 10u, 11u, 12u}) {
+    std::mt19937 rng(seed);
+    const int num_poses = 9;
+    const Scene scene = MakeScene(num_poses, 100, &rng);
+    InformationFilter sparse(DefaultOptions(), scene.camera);
+    testing::DenseReferenceFilter dense(DefaultOptions().anchor_information, scene.camera);
+    RunBoth(scene, 5, &rng, &sparse, &dense);
+
+    std::vector<Vector6d> candidates;
+    std::vector<std::vector<FeatureObservation>> observations;
+    int min_new = std::numeric_limits<int>::max();
+    std::vector<int64_t> union_ids;
+    for (int i = 5; i < num_poses; ++i) {
+      candidates.push_back(Perturb(scene.poses[i], 0.02, 0.01, &rng));
+      observations.push_back(Observe(scene, i, true, &rng));
+      min_new = std::min(min_new, sparse.CountNewFeatures(observations.back()));
+      for (const FeatureObservation& obs : observations.back()) union_ids.push_back(obs.feature_id);
+    }
+    ASSERT_GT(min_new, 0);
+    int max_new = 0;
+    for (const auto& obs : observations) max_new = std::max(max_new, sparse.CountNewFeatures(obs));
+    ASSERT_GT(max_new, min_new) << "the equal-dimension rule must drop some features";
+    const FeatureCovariance known = sparse.JointFeatureCovariance(union_ids);
+    const double log_det = sparse.LogDetInformation();
+    for (size_t c = 0; c < candidates.size(); ++c) {
+      for (const int count : {min_new, 0, -1}) {
+        const double fast = sparse.InformationGain(candidates[c], observations[c], count, known);
+        const double expanded =
+            sparse.LogDetExpandedInformation(candidates[c], observations[c], count) - log_det;
+        const int dense_count =
+            count < 0 ? sparse.CountNewFeatures(observations[c]) : count;
+        const double paper =
+            dense.LogDetExpanded(candidates[c], observations[c], dense_count) -
+            dense.LogDetInformation();
+        EXPECT_NEAR(fast, expanded, 1e-6 * std::abs(expanded)) << "candidate " << c;
+        EXPECT_NEAR(fast, paper, 1e-6 * std::abs(paper)) << "candidate " << c;
+        EXPECT_GT(fast, 0.0);
+      }
+    }
+  }
+}
+
+TEST(InformationFilterTest, GainIsMinusInfinityWhenThePoseIsUndetermined) {
+  std::mt19937 rng(13);
+  const Scene scene = MakeScene(3, 50, &rng);
+  InformationFilter filter(DefaultOptions(), scene.camera);
+  filter.AddFirstPose(scene.frame_ids[0], scene.poses[0], Observe(scene, 0, false, &rng));
+  std::vector<FeatureObservation> one_known;
+  for (const FeatureObservation& obs : Observe(scene, 1, false, &rng)) {
+    if (filter.HasFeature(obs.feature_id)) {
+      one_known.push_back(obs);
+      break;
+    }
+  }
+  ASSERT_EQ(one_known.size(), 1u);
+  const FeatureCovariance known = filter.JointFeatureCovariance({one_known[0].feature_id});
+  EXPECT_EQ(filter.InformationGain(scene.poses[1], one_known, 0, known),
+            -std::numeric_limits<double>::infinity());
+}
+
+}  // namespace
+}  // namespace ieslam
