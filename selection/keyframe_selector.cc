@@ -1,0 +1,335 @@
+#include "selection/keyframe_selector.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+
+#include <glog/logging.h>
+
+#include "core/error.h"
+#include "core/pose.h"
+
+namespace ieslam {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double Since(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+// The selector's working state for one run.
+class Run {
+ public:
+  Run(const SelectorOptions& options, FrameSource* source, InformationFilter* filter,
+      SelectionResult* result)
+      : options_(options), source_(source), filter_(filter), result_(result) {}
+
+  // World pose of a registered candidate through its base frame's current estimate.
+  Vector6d InitialPose(const CandidateFrame& c) const {
+    return IsometryToPose(PoseToIsometry(filter_->pose(c.base_frame)) * c.T_base_c);
+  }
+
+  // Adds the candidate to the filter and commits it; false (frame marked skipped) when the
+  // filter refuses it.
+  bool Add(const CandidateFrame& c) {
+    const auto start = Clock::now();
+    try {
+      filter_->AddPose(c.frame, InitialPose(c), c.observations);
+    } catch (const DataError& e) {
+      result_->seconds_filter += Since(start);
+      Place(c, false);
+      result_->frames[c.frame].skip_reason = e.what();
+      return false;
+    }
+    result_->seconds_filter += Since(start);
+    source_->Commit(c);
+    result_->selected.push_back(c.frame);
+    FramePlacement& placement = result_->frames[c.frame];
+    placement.selected = placement.placed = true;
+    placement.skip_reason.clear();
+    last_base_ = c.frame;
+    return true;
+  }
+
+  // Records a registered, non-selected frame's registration to its base frame.
+  void Place(const CandidateFrame& c, bool placed) {
+    FramePlacement& placement = result_->frames[c.frame];
+    if (placement.selected) return;
+    placement.placed = placed && c.registered;
+    placement.base_frame = c.base_frame;
+    placement.T_base_c = c.T_base_c;
+    placement.skip_reason = c.registered ? "" : c.reason;
+  }
+
+  CandidateFrame Prepare(int frame) {
+    const auto start = Clock::now();
+    CandidateFrame c = source_->Prepare(frame);
+    result_->seconds_selection += Since(start);
+    Place(c, true);
+    return c;
+  }
+
+  bool Usable(const CandidateFrame& c) const {
+    return c.registered && c.common_features >= options_.min_common_features;
+  }
+
+  void AddFirst(int frame) {
+    const CandidateFrame c = source_->PrepareFirst(frame);
+    const auto start = Clock::now();
+    filter_->AddFirstPose(frame, IsometryToPose(c.T_base_c), c.observations);
+    result_->seconds_filter += Since(start);
+    source_->Commit(c);
+    result_->selected.push_back(frame);
+    result_->frames[frame].selected = result_->frames[frame].placed = true;
+    result_->decisions.push_back({{frame}, {}, {}, {frame}, "first"});
+    last_base_ = frame;
+  }
+
+  // Tries the dropped frames after the last base frame, most recent first, until one is
+  // added. True when one was.
+  bool Recover(int before) {
+    int tried = 0;
+    for (int d = before - 1; d > last_base_ && tried < options_.max_recovery_frames; --d, ++tried) {
+      if (result_->frames[d].selected) continue;
+      const CandidateFrame c = Prepare(d);
+      if (Usable(c) && Add(c)) {
+        result_->decisions.push_back({{d}, {}, {}, {d}, "recovery"});
+        return true;
+      }
+    }
+    return false;
+  }
+
+  // Scores a buffer: total gains and map terms, with the equal-dimension rule.
+  void Score(const std::vector<CandidateFrame>& buffer, SelectionDecision* decision) {
+    const auto start = Clock::now();
+    std::vector<int64_t> known;
+    int min_new = std::numeric_limits<int>::max();
+    for (const CandidateFrame& c : buffer) {
+      for (const FeatureObservation& obs : c.observations) {
+        if (filter_->HasFeature(obs.feature_id)) known.push_back(obs.feature_id);
+      }
+      min_new = std::min(min_new, filter_->CountNewFeatures(c.observations));
+    }
+    std::sort(known.begin(), known.end());
+    known.erase(std::unique(known.begin(), known.end()), known.end());
+    const FeatureCovariance covariance = filter_->JointFeatureCovariance(known);
+    for (const CandidateFrame& c : buffer) {
+      GainTerms terms;
+      double gain = -std::numeric_limits<double>::infinity();
+      try {
+        gain = filter_->InformationGain(InitialPose(c), c.observations, min_new, covariance, &terms);
+      } catch (const DataError&) {
+        // A feature behind the candidate's camera: the registration is wrong, not scorable.
+      }
+      decision->candidates.push_back(c.frame);
+      decision->gains.push_back(gain);
+      decision->map_gains.push_back(std::isfinite(gain) ? terms.map : gain);
+    }
+    result_->seconds_selection += Since(start);
+  }
+
+  void RunInfo() {
+    const int n = source_->size();
+    int next = 1;
+    while (next < n) {
+      std::vector<CandidateFrame> buffer;
+      int f = next;
+      for (; f < n && static_cast<int>(buffer.size()) < options_.buffer_size; ++f) {
+        CandidateFrame c = Prepare(f);
+        if (!Usable(c)) break;
+        buffer.push_back(std::move(c));
+      }
+      if (buffer.empty()) {
+        // Frame `next` does not register: recover through dropped frames, or skip it.
+        if (Recover(next)) continue;
+        ++next;
+        Progress(next);
+        continue;
+      }
+      SelectionDecision decision;
+      Score(buffer, &decision);
+      const auto best = std::max_element(decision.gains.begin(), decision.gains.end()) -
+                        decision.gains.begin();
+      const double map_gain = decision.map_gains[best];
+      const double threshold = options_.map_gain_threshold_per_common_feature *
+                               buffer[best].common_features;
+      if (!std::isfinite(decision.gains[best])) {
+        decision.reason = "unscorable";
+        next = buffer.back().frame + 1;
+      } else if (map_gain < threshold && buffer.size() > 1) {
+        decision.reason = "threshold";
+        // Each frame is prepared again after the previous one entered: its data
+        // association and base frames change with every commit.
+        for (size_t k = 0; k < buffer.size(); ++k) {
+          const CandidateFrame c = k == 0 ? buffer[0] : Prepare(buffer[k].frame);
+          if (Usable(c) && Add(c)) decision.added.push_back(c.frame);
+        }
+        next = buffer.back().frame + 1;
+      } else {
+        decision.reason = "best_gain";
+        if (Add(buffer[best])) decision.added.push_back(buffer[best].frame);
+        next = buffer[best].frame + 1;
+      }
+      result_->decisions.push_back(std::move(decision));
+      Progress(next);
+    }
+  }
+
+  // all / interval: every frame (or every interval-th) that registers.
+  void RunEvery(int step) {
+    const int n = source_->size();
+    for (int f = 1; f < n; ++f) {
+      if (f % step != 0) continue;
+      const CandidateFrame c = Prepare(f);
+      if (Usable(c) && Add(c)) {
+        result_->decisions.push_back({{f}, {}, {}, {f}, step == 1 ? "all" : "interval"});
+      } else if (Recover(f)) {
+        Retry(f);  // a frame that still does not register keeps its reason in `frames`
+      }
+      Progress(f + 1);
+    }
+    // Frames between interval frames are placed by registration only.
+    if (step > 1) {
+      for (int f = 1; f < n; ++f) {
+        if (f % step != 0) Prepare(f);
+      }
+    }
+  }
+
+  void Retry(int f) {
+    const CandidateFrame c = Prepare(f);
+    if (Usable(c) && Add(c)) result_->decisions.push_back({{f}, {}, {}, {f}, "recovered"});
+  }
+
+  void Progress(int done) {
+    if (progress_) progress_(std::min(done, source_->size()), static_cast<int>(result_->selected.size()));
+  }
+
+  std::function<void(int, int)> progress_;
+  int last_base_ = 0;
+
+ private:
+  const SelectorOptions& options_;
+  FrameSource* source_;
+  InformationFilter* filter_;
+  SelectionResult* result_;
+};
+
+}  // namespace
+
+bool ParseSelectorKind(const std::string& name, SelectorKind* kind) {
+  if (name == "info") *kind = SelectorKind::kInfo;
+  else if (name == "all") *kind = SelectorKind::kAll;
+  else if (name == "interval") *kind = SelectorKind::kInterval;
+  else if (name == "deadreckoning") *kind = SelectorKind::kDeadReckoning;
+  else return false;
+  return true;
+}
+
+std::string SelectorKindName(SelectorKind kind) {
+  switch (kind) {
+    case SelectorKind::kInfo: return "info";
+    case SelectorKind::kAll: return "all";
+    case SelectorKind::kInterval: return "interval";
+    case SelectorKind::kDeadReckoning: return "deadreckoning";
+  }
+  return "?";
+}
+
+bool SelectorOptions::Check(std::string* why) const {
+  auto fail = [why](const std::string& message) {
+    if (why != nullptr) *why = message;
+    return false;
+  };
+  if (buffer_size < 1 || buffer_size > 100) {
+    return fail("buffer must be in [1, 100], got " + std::to_string(buffer_size));
+  }
+  if (interval < 1) return fail("interval must be >= 1, got " + std::to_string(interval));
+  if (min_common_features < 3) return fail("min_common_features must be >= 3");
+  if (!std::isfinite(map_gain_threshold_per_common_feature)) {
+    return fail("map_gain_threshold_per_common_feature must be finite");
+  }
+  if (max_recovery_frames < 0) return fail("max_recovery_frames must be >= 0");
+  return true;
+}
+
+KeyframeSelector::KeyframeSelector(const SelectorOptions& options) : options_(options) {
+  std::string why;
+  if (!options.Check(&why)) throw ConfigError(why);
+}
+
+SelectionResult KeyframeSelector::Run(FrameSource* source, InformationFilter* filter,
+                                      const std::function<void(int, int)>& progress) const {
+  SelectionResult result;
+  const int n = source->size();
+  if (n == 0) return result;
+  result.frames.resize(n);
+  for (int f = 0; f < n; ++f) result.frames[f].frame = f;
+
+  if (options_.kind == SelectorKind::kDeadReckoning) {
+    // Each frame registered to the one before it; a frame that does not register is
+    // skipped and the next is registered to the last placed one.
+    result.chained_T_w_c.assign(n, Eigen::Isometry3d::Identity());
+    const CandidateFrame first = source->PrepareFirst(0);
+    source->Commit(first);
+    result.chained_T_w_c[0] = first.T_base_c;
+    result.frames[0].selected = result.frames[0].placed = true;
+    result.selected.push_back(0);
+    int last = 0;
+    for (int f = 1; f < n; ++f) {
+      const auto start = Clock::now();
+      const CandidateFrame c = source->PrepareAgainst(f, last);
+      result.seconds_selection += Since(start);
+      FramePlacement& placement = result.frames[f];
+      if (!c.registered) {
+        placement.skip_reason = c.reason;
+        continue;
+      }
+      source->Commit(c);
+      result.chained_T_w_c[f] = result.chained_T_w_c[last] * c.T_base_c;
+      placement.selected = placement.placed = true;
+      placement.base_frame = last;
+      placement.T_base_c = c.T_base_c;
+      result.selected.push_back(f);
+      last = f;
+      if (progress) progress(f + 1, static_cast<int>(result.selected.size()));
+    }
+    return result;
+  }
+
+  CHECK(filter != nullptr);
+  class Run run(options_, source, filter, &result);
+  run.progress_ = progress;
+  run.AddFirst(0);
+  switch (options_.kind) {
+    case SelectorKind::kInfo: run.RunInfo(); break;
+    case SelectorKind::kAll: run.RunEvery(1); break;
+    case SelectorKind::kInterval: run.RunEvery(options_.interval); break;
+    case SelectorKind::kDeadReckoning: break;
+  }
+  return result;
+}
+
+std::vector<std::optional<Eigen::Isometry3d>> KeyframeSelector::FramePoses(
+    const SelectionResult& result, const InformationFilter& filter) {
+  std::vector<std::optional<Eigen::Isometry3d>> poses(result.frames.size());
+  if (!result.chained_T_w_c.empty()) {
+    for (const FramePlacement& p : result.frames) {
+      if (p.placed) poses[p.frame] = result.chained_T_w_c[p.frame];
+    }
+    return poses;
+  }
+  for (const FramePlacement& p : result.frames) {
+    if (p.selected && filter.HasPose(p.frame)) {
+      poses[p.frame] = PoseToIsometry(filter.pose(p.frame));
+    } else if (p.placed && filter.HasPose(p.base_frame)) {
+      poses[p.frame] = PoseToIsometry(filter.pose(p.base_frame)) * p.T_base_c;
+    }
+  }
+  return poses;
+}
+
+}  // namespace ieslam

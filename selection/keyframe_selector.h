@@ -1,0 +1,99 @@
+// Which frames enter the filter: the paper's look-ahead information-gain selection
+// (Algorithm 1, "look ahead and search backwards") and the baselines it is compared with,
+// behind one interface.
+//
+//  info           fill a buffer of up to `buffer_size` frames that register against the base
+//                 frames; add the one whose addition maximises log det I (equal-dimension rule
+//                 for new features); drop the frames before it; restart after it. When even
+//                 the best candidate tells little about the map, add the whole buffer.
+//  all            the standard EIF: every frame that registers.
+//  interval       every `interval`-th frame.
+//  deadreckoning  no filter: consecutive registrations chained (the paper's Fig. 9c).
+//
+// Recovery (the paper's answer to a kidnap): when no frame of a new buffer registers, the
+// dropped frames since the last base frame are tried, most recent first; one that registers
+// is added, and the new frame is tried again against the grown base database.
+#pragma once
+
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "backend/information_filter.h"
+#include "core/frame_source.h"
+
+namespace ieslam {
+
+enum class SelectorKind { kInfo, kAll, kInterval, kDeadReckoning };
+
+// "info", "all", "interval", "deadreckoning"; false for anything else.
+bool ParseSelectorKind(const std::string& name, SelectorKind* kind);
+std::string SelectorKindName(SelectorKind kind);
+
+struct SelectorOptions {
+  SelectorKind kind = SelectorKind::kInfo;
+  int buffer_size = 3;  // the paper's: the next frame plus two look-ahead frames
+  int interval = 5;
+  // A frame sharing fewer features with the base database ends the buffer: it is about the
+  // least a 3-D registration needs.
+  int min_common_features = 10;
+  // In nats, on the best candidate's map term (GainTerms::map): below it the buffer's frames
+  // say little about the map already built (sharp turns, feature-poor stretches), and all of
+  // them are added. log(2) per re-observed feature coordinate would mean halving its
+  // variance; 0.5 nat per re-observed feature is a frame that barely re-observes the map.
+  double map_gain_threshold_per_common_feature = 0.5;
+  int max_recovery_frames = 60;  // dropped frames tried when a buffer cannot start
+
+  bool Check(std::string* why) const;
+};
+
+// One decision of the selector, for reports and the paper's Figs. 7 and 12.
+struct SelectionDecision {
+  std::vector<int> candidates;
+  std::vector<double> gains;      // total gain (nats) per candidate; -inf: not scorable
+  std::vector<double> map_gains;  // the map term per candidate
+  std::vector<int> added;         // frames added to the filter by this decision
+  std::string reason;             // "best_gain" | "threshold" | "recovery" | "all" | "interval" | ...
+};
+
+// Where each frame ended up.
+struct FramePlacement {
+  int frame = -1;
+  bool selected = false;
+  bool placed = false;     // selected, or registered to a base frame
+  int base_frame = -1;     // for a non-selected frame
+  Eigen::Isometry3d T_base_c = Eigen::Isometry3d::Identity();
+  std::string skip_reason;  // when !placed
+};
+
+struct SelectionResult {
+  std::vector<int> selected;  // in the order added
+  std::vector<SelectionDecision> decisions;
+  std::vector<FramePlacement> frames;  // one per frame of the source
+  // Dead reckoning only: the chained pose of every frame (no filter).
+  std::vector<Eigen::Isometry3d> chained_T_w_c;
+  double seconds_selection = 0.0;  // preparing candidates and scoring them
+  double seconds_filter = 0.0;     // adding to the filter (update + recovery)
+};
+
+class KeyframeSelector {
+ public:
+  explicit KeyframeSelector(const SelectorOptions& options);
+
+  // Runs over every frame of `source`, adding the selected ones to `filter` (unused by
+  // dead reckoning). `progress`, if set, is called with (frames done, frames selected).
+  SelectionResult Run(FrameSource* source, InformationFilter* filter,
+                      const std::function<void(int, int)>& progress = nullptr) const;
+
+  // The pose of every placed frame: the filter's estimate for selected frames, the base
+  // frame's estimate composed with the registration for the others (dead reckoning: the
+  // chain). Frames that were not placed are absent (nullopt).
+  static std::vector<std::optional<Eigen::Isometry3d>> FramePoses(const SelectionResult& result,
+                                                                  const InformationFilter& filter);
+
+ private:
+  SelectorOptions options_;
+};
+
+}  // namespace ieslam

@@ -1,0 +1,105 @@
+#include "selection/keyframe_selector.h"
+
+#include <gtest/gtest.h>
+
+#include "frontend/paper_simulation.h"
+#include "selection/known_association_run.h"
+#include "selection/known_association_source.h"
+
+namespace ieslam {
+namespace {
+
+// A short version of the paper's simulation: one loop of 80 poses.
+KnownAssociationInput ShortSimulation(bool noise, uint32_t noise_seed = 2) {
+  SimulationOptions options;
+  options.trajectory.num_poses = 80;
+  options.trajectory.num_loops = 1;
+  options.add_noise = noise;
+  options.noise_seed = noise_seed;
+  const SimulatedDataset data = SimulatePaperScenario(options);
+  return {data.observations, data.T_w_c_true, data.camera};
+}
+
+SelectorOptions Kind(SelectorKind kind) {
+  SelectorOptions options;
+  options.kind = kind;
+  return options;
+}
+
+TEST(KeyframeSelectorTest, NoiseFreeAllFramesFilterRecoversTheTruth) {
+  const KnownAssociationInput input = ShortSimulation(false);
+  const KnownAssociationMetrics m =
+      RunKnownAssociation(input, Kind(SelectorKind::kAll), InformationFilterOptions());
+  EXPECT_EQ(m.frames_used, 80);
+  for (const PoseErrorRecord& record : m.pose_errors) {
+    EXPECT_LT(record.error.head<3>().norm(), 1e-6) << "frame " << record.frame;
+    EXPECT_LT(record.error.tail<3>().norm(), 1e-6) << "frame " << record.frame;
+  }
+}
+
+TEST(KeyframeSelectorTest, InfoSelectorUsesFewerFramesAndRecordsEveryDecision) {
+  const KnownAssociationInput input = ShortSimulation(true);
+  const KnownAssociationMetrics m =
+      RunKnownAssociation(input, Kind(SelectorKind::kInfo), InformationFilterOptions());
+  EXPECT_LT(m.frames_used, 80);
+  EXPECT_GT(m.frames_used, 80 / 3 - 1);  // a buffer of 3 adds at least every third frame
+  // Selected frames increase, and each decision's added frames are among its candidates.
+  for (size_t i = 1; i < m.selection.selected.size(); ++i) {
+    EXPECT_LT(m.selection.selected[i - 1], m.selection.selected[i]);
+  }
+  int added = 0;
+  for (const SelectionDecision& d : m.selection.decisions) {
+    EXPECT_FALSE(d.reason.empty());
+    if (d.reason == "best_gain" || d.reason == "threshold") {
+      EXPECT_EQ(d.gains.size(), d.candidates.size());  // every candidate of a buffer is scored
+    }
+    for (int f : d.added) {
+      EXPECT_NE(std::find(d.candidates.begin(), d.candidates.end(), f), d.candidates.end());
+    }
+    added += static_cast<int>(d.added.size());
+  }
+  EXPECT_EQ(added, m.frames_used);
+  // Every frame is placed: selected, or registered to a base frame.
+  for (const FramePlacement& p : m.selection.frames) EXPECT_TRUE(p.placed) << "frame " << p.frame;
+  EXPECT_LT(m.ate_rmse_m, 0.05);
+}
+
+TEST(KeyframeSelectorTest, IntervalSelectsEveryNthFrame) {
+  const KnownAssociationInput input = ShortSimulation(true);
+  SelectorOptions options = Kind(SelectorKind::kInterval);
+  options.interval = 4;
+  const KnownAssociationMetrics m = RunKnownAssociation(input, options, InformationFilterOptions());
+  ASSERT_EQ(m.frames_used, 20);
+  for (size_t i = 0; i < m.selection.selected.size(); ++i) EXPECT_EQ(m.selection.selected[i], 4 * static_cast<int>(i));
+}
+
+TEST(KeyframeSelectorTest, DeadReckoningDriftsMoreThanTheFilter) {
+  const KnownAssociationInput input = ShortSimulation(true);
+  const KnownAssociationMetrics filtered =
+      RunKnownAssociation(input, Kind(SelectorKind::kAll), InformationFilterOptions());
+  std::vector<double> timestamps(input.observations.size());
+  KnownAssociationSource source(input.observations, timestamps, input.camera,
+                                PoseToIsometry(input.T_w_c_true[0]));
+  const SelectionResult chained =
+      KeyframeSelector(Kind(SelectorKind::kDeadReckoning)).Run(&source, nullptr);
+  ASSERT_EQ(chained.chained_T_w_c.size(), input.observations.size());
+  const Eigen::Vector3d last_true = input.T_w_c_true.back().head<3>();
+  const double chained_error = (chained.chained_T_w_c.back().translation() - last_true).norm();
+  EXPECT_GT(chained_error, 2.0 * filtered.final_pose_error_m);
+}
+
+TEST(KeyframeSelectorTest, OptionsAreChecked) {
+  SelectorOptions options;
+  std::string why;
+  EXPECT_TRUE(options.Check(&why));
+  options.buffer_size = -4;
+  EXPECT_FALSE(options.Check(&why));
+  EXPECT_NE(why.find("-4"), std::string::npos);
+  SelectorKind kind;
+  EXPECT_TRUE(ParseSelectorKind("deadreckoning", &kind));
+  EXPECT_EQ(SelectorKindName(kind), "deadreckoning");
+  EXPECT_FALSE(ParseSelectorKind("greedy", &kind));
+}
+
+}  // namespace
+}  // namespace ieslam
