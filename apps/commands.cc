@@ -10,7 +10,7 @@ const std::vector<Command>& Commands() {
        EvaluateCommand, ""},
       {"simulate", "the paper's simulation: Table I and filter consistency", SimulateCommand,
        ""},
-      {"synth", "write a synthetic RGB-D dataset with exact ground truth", nullptr, "issue 3"},
+      {"synth", "write a synthetic RGB-D dataset with exact ground truth", SynthCommand, ""},
       {"register", "register frame i to i+K across a dataset against ground truth",
        RegisterCommand, ""},
   };
