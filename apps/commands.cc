@@ -4,8 +4,8 @@ namespace ieslam {
 
 const std::vector<Command>& Commands() {
   static const std::vector<Command> commands = {
-      {"run", "dataset -> features -> keyframe selection -> EIF (-> bundle adjustment)", nullptr,
-       "issue 8: the pipeline lands once the frontend and selector do"},
+      {"run", "dataset -> features -> keyframe selection -> EIF (-> bundle adjustment)",
+       RunCommand, ""},
       {"evaluate", "TUM-compatible ATE / RPE of a trajectory against ground truth",
        EvaluateCommand, ""},
       {"simulate", "the paper's simulation: Table I and filter consistency", SimulateCommand,

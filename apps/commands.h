@@ -22,6 +22,7 @@ const std::vector<Command>& Commands();
 
 int EvaluateCommand(const CommandArgs& args);
 int RegisterCommand(const CommandArgs& args);
+int RunCommand(const CommandArgs& args);
 int SimulateCommand(const CommandArgs& args);
 int SynthCommand(const CommandArgs& args);
 

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <iterator>
 #include <limits>
 
 #include <glog/logging.h>
@@ -17,6 +18,15 @@ using Clock = std::chrono::steady_clock;
 
 double Since(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+// A decision that adds one frame without scoring a buffer.
+SelectionDecision Added(int frame, const std::string& reason) {
+  SelectionDecision decision;
+  decision.candidates = {frame};
+  decision.added = {frame};
+  decision.reason = reason;
+  return decision;
 }
 
 // The selector's working state for one run.
@@ -83,7 +93,7 @@ class Run {
     source_->Commit(c);
     result_->selected.push_back(frame);
     result_->frames[frame].selected = result_->frames[frame].placed = true;
-    result_->decisions.push_back({{frame}, {}, {}, {frame}, "first"});
+    result_->decisions.push_back(Added(frame, "first"));
     last_base_ = frame;
   }
 
@@ -95,32 +105,58 @@ class Run {
       if (result_->frames[d].selected) continue;
       const CandidateFrame c = Prepare(d);
       if (Usable(c) && Add(c)) {
-        result_->decisions.push_back({{d}, {}, {}, {d}, "recovery"});
+        result_->decisions.push_back(Added(d, "recovery"));
         return true;
       }
     }
     return false;
   }
 
-  // Scores a buffer: total gains and map terms, with the equal-dimension rule.
+  // Scores a buffer: total gains and map terms, with the equal-dimension rule for new
+  // features, and equal measurements of known ones: every candidate is scored on its
+  // observations of the known features that all candidates of the buffer observe. Scored on
+  // all their observations, candidates nearer the base frames win by counting more matches
+  // (at 30 Hz the next frame always would); on the same features, the gain measures what the
+  // candidate's viewpoint adds. With too few features in common, each candidate's own known
+  // features are used, as in the paper.
   void Score(const std::vector<CandidateFrame>& buffer, SelectionDecision* decision) {
     const auto start = Clock::now();
-    std::vector<int64_t> known;
+    std::vector<std::vector<int64_t>> known(buffer.size());
     int min_new = std::numeric_limits<int>::max();
-    for (const CandidateFrame& c : buffer) {
-      for (const FeatureObservation& obs : c.observations) {
-        if (filter_->HasFeature(obs.feature_id)) known.push_back(obs.feature_id);
+    for (size_t k = 0; k < buffer.size(); ++k) {
+      for (const FeatureObservation& obs : buffer[k].observations) {
+        if (filter_->HasFeature(obs.feature_id)) known[k].push_back(obs.feature_id);
       }
-      min_new = std::min(min_new, filter_->CountNewFeatures(c.observations));
+      std::sort(known[k].begin(), known[k].end());
+      min_new = std::min(min_new, filter_->CountNewFeatures(buffer[k].observations));
     }
-    std::sort(known.begin(), known.end());
-    known.erase(std::unique(known.begin(), known.end()), known.end());
-    const FeatureCovariance covariance = filter_->JointFeatureCovariance(known);
+    std::vector<int64_t> common = known[0];
+    for (size_t k = 1; k < buffer.size(); ++k) {
+      std::vector<int64_t> both;
+      std::set_intersection(common.begin(), common.end(), known[k].begin(), known[k].end(),
+                            std::back_inserter(both));
+      common.swap(both);
+    }
+    const bool equal_measurements = static_cast<int>(common.size()) >= options_.min_common_features;
+    std::vector<int64_t> all_known;
+    for (const auto& ids : known) all_known.insert(all_known.end(), ids.begin(), ids.end());
+    std::sort(all_known.begin(), all_known.end());
+    all_known.erase(std::unique(all_known.begin(), all_known.end()), all_known.end());
+    const FeatureCovariance covariance =
+        filter_->JointFeatureCovariance(equal_measurements ? common : all_known);
     for (const CandidateFrame& c : buffer) {
+      std::vector<FeatureObservation> scored;
+      for (const FeatureObservation& obs : c.observations) {
+        const bool is_known = filter_->HasFeature(obs.feature_id);
+        if (!is_known || !equal_measurements ||
+            std::binary_search(common.begin(), common.end(), obs.feature_id)) {
+          scored.push_back(obs);
+        }
+      }
       GainTerms terms;
       double gain = -std::numeric_limits<double>::infinity();
       try {
-        gain = filter_->InformationGain(InitialPose(c), c.observations, min_new, covariance, &terms);
+        gain = filter_->InformationGain(InitialPose(c), scored, min_new, covariance, &terms);
       } catch (const DataError&) {
         // A feature behind the candidate's camera: the registration is wrong, not scorable.
       }
@@ -128,6 +164,7 @@ class Run {
       decision->gains.push_back(gain);
       decision->map_gains.push_back(std::isfinite(gain) ? terms.map : gain);
     }
+    decision->scored_features = equal_measurements ? static_cast<int>(common.size()) : -1;
     result_->seconds_selection += Since(start);
   }
 
@@ -154,8 +191,9 @@ class Run {
       const auto best = std::max_element(decision.gains.begin(), decision.gains.end()) -
                         decision.gains.begin();
       const double map_gain = decision.map_gains[best];
-      const double threshold = options_.map_gain_threshold_per_common_feature *
-                               buffer[best].common_features;
+      const int scored = decision.scored_features >= 0 ? decision.scored_features
+                                                        : buffer[best].common_features;
+      const double threshold = options_.map_gain_threshold_per_common_feature * scored;
       if (!std::isfinite(decision.gains[best])) {
         decision.reason = "unscorable";
         next = buffer.back().frame + 1;
@@ -185,7 +223,7 @@ class Run {
       if (f % step != 0) continue;
       const CandidateFrame c = Prepare(f);
       if (Usable(c) && Add(c)) {
-        result_->decisions.push_back({{f}, {}, {}, {f}, step == 1 ? "all" : "interval"});
+        result_->decisions.push_back(Added(f, step == 1 ? "all" : "interval"));
       } else if (Recover(f)) {
         Retry(f);  // a frame that still does not register keeps its reason in `frames`
       }
@@ -201,7 +239,7 @@ class Run {
 
   void Retry(int f) {
     const CandidateFrame c = Prepare(f);
-    if (Usable(c) && Add(c)) result_->decisions.push_back({{f}, {}, {}, {f}, "recovered"});
+    if (Usable(c) && Add(c)) result_->decisions.push_back(Added(f, "recovered"));
   }
 
   void Progress(int done) {

@@ -54,6 +54,7 @@ struct SelectionDecision {
   std::vector<double> gains;      // total gain (nats) per candidate; -inf: not scorable
   std::vector<double> map_gains;  // the map term per candidate
   std::vector<int> added;         // frames added to the filter by this decision
+  int scored_features = -1;       // known features all candidates were scored on (-1: own)
   std::string reason;             // "best_gain" | "threshold" | "recovery" | "all" | "interval" | ...
 };
 

@@ -1,0 +1,189 @@
+#include "apps/run_pipeline.h"
+
+#include <chrono>
+#include <cstdio>
+
+#include <opencv2/core.hpp>
+
+#include "apps/app_util.h"
+#include "backend/evaluation.h"
+#include "core/error.h"
+#include "core/file_util.h"
+
+namespace ieslam {
+namespace {
+
+double SecondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+// ATE of a written estimate against the written ground truth, exactly as `ieslam evaluate`
+// computes it from the same files.
+double AteOfFiles(const std::string& gt_path, const std::string& est_path) {
+  const Trajectory gt = ReadTumTrajectoryForEvaluation(gt_path);
+  const Trajectory est = ReadTumTrajectoryForEvaluation(est_path);
+  return ComputeAte(gt, est, EvaluationOptions(), gt_path, est_path).translation.rmse;
+}
+
+}  // namespace
+
+bool RunOptions::Check(std::string* why) const {
+  if (dataset.empty() || output.empty()) {
+    if (why != nullptr) *why = "--dataset and --output are required";
+    return false;
+  }
+  if (threads < 0) {
+    if (why != nullptr) *why = "--threads must be >= 0";
+    return false;
+  }
+  return dataset_options.Check(why) && source.Check(why) && selector.Check(why) &&
+         filter.Check(why) && map.Check(why);
+}
+
+Json RunOptions::ToJson() const {
+  const FeatureOptions& f = source.frontend.features;
+  const RegistrationOptions& r = source.frontend.registration;
+  Json json = Json::Object();
+  json.Set("dataset", DatasetOptionsToJson(dataset_options));
+  json["features"]
+      .Set("max_features", f.max_features)
+      .Set("contrast_threshold", f.contrast_threshold)
+      .Set("octave_layers", f.octave_layers)
+      .Set("image_scale", f.image_scale);
+  json["matching"].Set("ratio", source.frontend.matching.ratio).Set("mutual", source.frontend.matching.mutual);
+  json["lifting"]
+      .Set("window_radius", source.frontend.lifting.window_radius)
+      .Set("sigma_multiplier", source.frontend.lifting.sigma_multiplier);
+  json["registration"]
+      .Set("inlier_threshold_m", r.inlier_threshold_m)
+      .Set("max_iterations", r.max_iterations)
+      .Set("min_inliers", r.min_inliers)
+      .Set("seed", static_cast<int64_t>(r.seed));
+  json["source"]
+      .Set("max_base_candidates", source.max_base_candidates)
+      .Set("max_new_features_per_frame", source.max_new_features_per_frame)
+      .Set("min_inliers_secondary", source.min_inliers_secondary);
+  json["selector"]
+      .Set("kind", SelectorKindName(selector.kind))
+      .Set("buffer", selector.buffer_size)
+      .Set("interval", selector.interval)
+      .Set("min_common_features", selector.min_common_features)
+      .Set("map_gain_threshold_per_common_feature", selector.map_gain_threshold_per_common_feature);
+  json["filter"].Set("anchor_information", filter.anchor_information);
+  json["map"].Set("voxel_size_m", map.voxel_size_m).Set("pixel_step", map.pixel_step);
+  json.Set("threads", threads);
+  return json;
+}
+
+RunSummary RunPipeline(const RunOptions& options) {
+  std::string why;
+  if (!options.Check(&why)) throw ConfigError(why);
+  const auto start = std::chrono::steady_clock::now();
+  if (options.threads > 0) cv::setNumThreads(options.threads);
+  const auto dataset = OpenDataset(options.dataset, options.dataset_options);
+  PrepareOutputDirectory(options.output);
+
+  RgbdSourceOptions source_options = options.source;
+  source_options.frontend.registration.seed = options.seed;
+  source_options.database.seed = options.seed;
+  RgbdFrameSource source(*dataset, source_options);
+  InformationFilter filter(options.filter, dataset->rig().colour);
+  Progress progress("run", dataset->size(), options.quiet);
+  const SelectionResult selection = KeyframeSelector(options.selector).Run(
+      &source, &filter, [&progress](int done, int selected) {
+        progress.Update(done, std::to_string(selected) + " selected");
+      });
+  progress.Finish();
+
+  // Trajectories.
+  const auto poses = KeyframeSelector::FramePoses(selection, filter);
+  Trajectory keyframes, trajectory;
+  for (int frame : selection.selected) {
+    if (poses[frame]) keyframes.push_back({dataset->info(frame).timestamp, *poses[frame]});
+  }
+  std::sort(keyframes.begin(), keyframes.end(),
+            [](const TimedPose& a, const TimedPose& b) { return a.timestamp < b.timestamp; });
+  RunSummary summary;
+  for (int f = 0; f < dataset->size(); ++f) {
+    if (poses[f]) {
+      trajectory.push_back({dataset->info(f).timestamp, *poses[f]});
+    } else {
+      summary.frames_skipped.emplace_back(f, selection.frames[f].skip_reason);
+    }
+  }
+  const std::string out = options.output;
+  WriteTumTrajectory(JoinPath(out, "keyframes.tum"), keyframes, "ieslam keyframes (filter estimate)");
+  WriteTumTrajectory(JoinPath(out, "trajectory.tum"), trajectory, "ieslam every processed frame");
+  std::string selected_lines;
+  for (int frame : selection.selected) {
+    char line[64];
+    std::snprintf(line, sizeof(line), "%d %.6f\n", dataset->info(frame).source_index,
+                  dataset->info(frame).timestamp);
+    selected_lines += line;
+  }
+  WriteTextAtomically(JoinPath(out, "selected_frames.txt"), selected_lines);
+  const bool has_gt = dataset->has_ground_truth();
+  if (has_gt) {
+    WriteTumTrajectory(JoinPath(out, "groundtruth.tum"), dataset->GroundTruth(), "ground truth");
+    summary.ate_keyframes_m = AteOfFiles(JoinPath(out, "groundtruth.tum"), JoinPath(out, "keyframes.tum"));
+    summary.ate_trajectory_m =
+        AteOfFiles(JoinPath(out, "groundtruth.tum"), JoinPath(out, "trajectory.tum"));
+  }
+
+  // The dense map: the selected frames' clouds at their estimated poses.
+  if (options.write_map) {
+    DenseMap map(options.map);
+    for (int frame : selection.selected) {
+      if (poses[frame]) map.AddFrame(dataset->Load(frame), dataset->rig(), *poses[frame]);
+    }
+    map.WritePly(JoinPath(out, "map.ply"));
+  }
+
+  // The report.
+  summary.frames_total = dataset->size();
+  summary.frames_selected = static_cast<int>(selection.selected.size());
+  summary.state_dim = filter.state_dim();
+  Json report = Json::Object();
+  report.Set("version", IESLAM_VERSION)
+      .Set("dataset", options.dataset)
+      .Set("format", dataset->format())
+      .Set("calibration", dataset->calibration_path())
+      .Set("seed", static_cast<int64_t>(options.seed))
+      .Set("options", options.ToJson())
+      .Set("frames_total", summary.frames_total)
+      .Set("frames_selected", summary.frames_selected);
+  Json skipped = Json::Array();
+  for (const auto& [frame, reason] : summary.frames_skipped) {
+    skipped.Push(Json::Object().Set("frame", frame).Set("reason", reason));
+  }
+  report.Set("frames_skipped", skipped)
+      .Set("state_dim", summary.state_dim)
+      .Set("poses", filter.num_poses())
+      .Set("features", filter.num_features())
+      .Set("interrupted", false);
+  const SourceTimings& t = source.timings();
+  report["seconds"]
+      .Set("total", SecondsSince(start))
+      .Set("frontend", t.total())
+      .Set("selection", selection.seconds_selection - t.total() > 0 ? selection.seconds_selection - t.total() : 0.0)
+      .Set("filter", selection.seconds_filter)
+      .Set("load", t.load_s);
+  if (has_gt) {
+    report["ate_rmse_m"].Set("keyframes", summary.ate_keyframes_m).Set("trajectory", summary.ate_trajectory_m);
+  }
+  Json decisions = Json::Array();
+  for (const SelectionDecision& d : selection.decisions) {
+    decisions.Push(Json::Object()
+                       .Set("candidates", Json::ArrayOf(d.candidates))
+                       .Set("gains", Json::ArrayOf(d.gains))
+                       .Set("map_gains", Json::ArrayOf(d.map_gains))
+                       .Set("added", Json::ArrayOf(d.added))
+                       .Set("reason", d.reason));
+  }
+  report.Set("decisions", decisions);
+  WriteTextAtomically(JoinPath(out, "report.json"), report.Dump() + "\n");
+  summary.report = report;
+  return summary;
+}
+
+}  // namespace ieslam

@@ -1,0 +1,47 @@
+// `ieslam run` as a function: dataset -> front end -> selector -> EIF -> output files.
+// The command parses flags into RunOptions; tests call RunPipeline directly.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "backend/information_filter.h"
+#include "core/dataset.h"
+#include "core/json.h"
+#include "frontend/dense_map.h"
+#include "frontend/rgbd_frame_source.h"
+#include "selection/keyframe_selector.h"
+
+namespace ieslam {
+
+struct RunOptions {
+  std::string dataset;
+  std::string output;
+  DatasetOptions dataset_options;
+  RgbdSourceOptions source;
+  SelectorOptions selector;
+  InformationFilterOptions filter;
+  DenseMapOptions map;
+  uint32_t seed = 1;
+  int threads = 0;  // 0: OpenCV's default; 1: the deterministic single-thread mode
+  bool quiet = false;
+  bool write_map = true;
+
+  bool Check(std::string* why) const;
+  Json ToJson() const;
+};
+
+struct RunSummary {
+  int frames_total = 0;
+  int frames_selected = 0;
+  std::vector<std::pair<int, std::string>> frames_skipped;
+  int state_dim = 0;
+  double ate_keyframes_m = -1.0;   // < 0: no ground truth
+  double ate_trajectory_m = -1.0;
+  Json report;
+};
+
+// Runs the whole job and writes every output file into options.output.
+RunSummary RunPipeline(const RunOptions& options);
+
+}  // namespace ieslam

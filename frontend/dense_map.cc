@@ -1,0 +1,96 @@
+#include "frontend/dense_map.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <vector>
+
+#include <glog/logging.h>
+
+#include "core/error.h"
+#include "core/file_util.h"
+
+namespace ieslam {
+namespace {
+
+// 21 bits per axis: +-10 km at 1 cm voxels.
+int64_t VoxelKey(const Eigen::Vector3d& p, double size) {
+  const int64_t offset = int64_t{1} << 20;
+  const auto axis = [&](double v) {
+    return std::clamp<int64_t>(static_cast<int64_t>(std::floor(v / size)) + offset, 0,
+                               (int64_t{1} << 21) - 1);
+  };
+  return (axis(p.x()) << 42) | (axis(p.y()) << 21) | axis(p.z());
+}
+
+}  // namespace
+
+bool DenseMapOptions::Check(std::string* why) const {
+  if (!(voxel_size_m > 0.0) || !std::isfinite(voxel_size_m)) {
+    if (why != nullptr) *why = "map.voxel_size_m must be positive";
+    return false;
+  }
+  if (pixel_step < 1) {
+    if (why != nullptr) *why = "map.pixel_step must be >= 1";
+    return false;
+  }
+  return true;
+}
+
+DenseMap::DenseMap(const DenseMapOptions& options) : options_(options) {
+  std::string why;
+  if (!options.Check(&why)) throw ConfigError(why);
+}
+
+void DenseMap::AddFrame(const Frame& frame, const Rig& rig, const Eigen::Isometry3d& T_w_c) {
+  CHECK_EQ(frame.depth.type(), CV_32F);
+  CHECK_EQ(frame.colour.type(), CV_8UC3);
+  const Eigen::Isometry3d T_w_range = T_w_c * rig.T_colour_range;
+  for (int y = 0; y < frame.depth.rows; y += options_.pixel_step) {
+    for (int x = 0; x < frame.depth.cols; x += options_.pixel_step) {
+      const float value = frame.depth.at<float>(y, x);
+      if (!(value > 0.0f) || !std::isfinite(value)) continue;
+      const Eigen::Vector3d p_range = rig.range.PixelToPoint({x, y}, value);
+      const Eigen::Vector3d p_colour = rig.T_colour_range * p_range;
+      if (p_colour.z() <= 0.0) continue;
+      const Eigen::Vector2d pixel = rig.colour.Project(p_colour);
+      if (!rig.colour.InImage(pixel)) continue;
+      const cv::Vec3b bgr = frame.colour.at<cv::Vec3b>(static_cast<int>(std::lround(pixel.y())),
+                                                        static_cast<int>(std::lround(pixel.x())));
+      const Eigen::Vector3d p_w = T_w_range * p_range;
+      Voxel& voxel = voxels_[VoxelKey(p_w, options_.voxel_size_m)];
+      voxel.sum += p_w;
+      voxel.colour_sum += Eigen::Vector3d(bgr[2], bgr[1], bgr[0]);
+      ++voxel.count;
+    }
+  }
+}
+
+void DenseMap::WritePly(const std::string& path) const {
+  std::vector<int64_t> keys;
+  keys.reserve(voxels_.size());
+  for (const auto& entry : voxels_) keys.push_back(entry.first);
+  std::sort(keys.begin(), keys.end());
+  WriteFileAtomically(
+      path,
+      [&](std::ostream& out) {
+        out << "ply\nformat binary_little_endian 1.0\ncomment ieslam dense map\n"
+            << "element vertex " << keys.size() << "\n"
+            << "property float x\nproperty float y\nproperty float z\n"
+            << "property uchar red\nproperty uchar green\nproperty uchar blue\nend_header\n";
+        char record[15];
+        for (int64_t key : keys) {
+          const Voxel& v = voxels_.at(key);
+          const Eigen::Vector3f p = (v.sum / v.count).cast<float>();
+          const Eigen::Vector3d c = v.colour_sum / v.count;
+          std::memcpy(record, p.data(), 12);  // x86-64 and ARM64 are little-endian
+          for (int i = 0; i < 3; ++i) {
+            record[12 + i] = static_cast<char>(static_cast<uint8_t>(std::lround(std::clamp(c[i], 0.0, 255.0))));
+          }
+          out.write(record, sizeof(record));
+        }
+      },
+      /*binary=*/true);
+}
+
+}  // namespace ieslam

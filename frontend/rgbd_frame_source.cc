@@ -1,0 +1,181 @@
+#include "frontend/rgbd_frame_source.h"
+
+#include <algorithm>
+#include <chrono>
+
+#include <glog/logging.h>
+
+#include "core/error.h"
+
+namespace ieslam {
+namespace {
+
+double SecondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+FeatureObservation ObservationOf(const LiftedPoint& point, int64_t id) {
+  FeatureObservation obs;
+  obs.feature_id = id;
+  obs.z = point.z;
+  obs.Q = point.Q;
+  return obs;
+}
+
+}  // namespace
+
+bool RgbdSourceOptions::Check(std::string* why) const {
+  auto fail = [why](const std::string& message) {
+    if (why != nullptr) *why = message;
+    return false;
+  };
+  if (!frontend.Check(why) || !database.Check(why)) return false;
+  if (max_base_candidates < 1) return fail("max_base_candidates must be >= 1");
+  if (max_new_features_per_frame < 0) return fail("max_new_features_per_frame must be >= 0");
+  if (min_inliers_secondary < frontend.registration.min_inliers) {
+    return fail("min_inliers_secondary must be >= registration.min_inliers");
+  }
+  return true;
+}
+
+RgbdFrameSource::RgbdFrameSource(const Dataset& dataset, const RgbdSourceOptions& options)
+    : dataset_(dataset),
+      options_(options),
+      processor_(dataset.rig(), options.frontend),
+      database_(options.database) {
+  std::string why;
+  if (!options.Check(&why)) throw ConfigError(why);
+}
+
+RgbdFrameSource::~RgbdFrameSource() = default;
+
+const ProcessedFrame& RgbdFrameSource::Processed(int frame) {
+  auto it = processed_.find(frame);
+  if (it != processed_.end()) return it->second;
+  const auto start = std::chrono::steady_clock::now();
+  const Frame loaded = dataset_.Load(frame);  // the images are released when this returns
+  timings_.load_s += SecondsSince(start);
+  ProcessedFrame processed = processor_.Process(loaded);
+  timings_.extract_s += processed.seconds_extract;
+  timings_.lift_s += processed.seconds_lift;
+  return processed_.emplace(frame, std::move(processed)).first->second;
+}
+
+FrameRegistration RgbdFrameSource::Register(int base, int frame) {
+  const ProcessedFrame& a = Processed(base);
+  const ProcessedFrame& b = Processed(frame);
+  FrameRegistration registration = RegisterFrames(a, b, options_.frontend.matching,
+                                                  options_.frontend.registration);
+  timings_.match_s += registration.seconds_match;
+  timings_.ransac_s += registration.seconds_ransac;
+  return registration;
+}
+
+CandidateFrame RgbdFrameSource::PrepareFirst(int frame) {
+  // The first frame has no base: all of its (capped) lifted keypoints become features.
+  return Build(frame, {});
+}
+
+CandidateFrame RgbdFrameSource::Prepare(int frame) {
+  const ProcessedFrame& processed = Processed(frame);
+  const auto start = std::chrono::steady_clock::now();
+  std::vector<int> bases;
+  for (const auto& [base, votes] :
+       database_.RankFrames(processed.features.descriptors, options_.max_base_candidates)) {
+    bases.push_back(base);
+  }
+  timings_.match_s += SecondsSince(start);
+  if (last_base_ >= 0 && std::find(bases.begin(), bases.end(), last_base_) == bases.end()) {
+    bases.push_back(last_base_);
+  }
+  return Build(frame, bases);
+}
+
+CandidateFrame RgbdFrameSource::PrepareAgainst(int frame, int base_frame) {
+  return Build(frame, {base_frame});
+}
+
+CandidateFrame RgbdFrameSource::Build(int frame, const std::vector<int>& bases) {
+  const ProcessedFrame& processed = Processed(frame);
+  CandidateFrame candidate;
+  candidate.frame = frame;
+  candidate.timestamp = timestamp(frame);
+  const int rows = processed.features.size();
+  std::vector<int64_t> row_ids(rows, -1);
+
+  // Register against every base candidate; the one with most inliers is the base frame.
+  std::vector<std::pair<int, FrameRegistration>> registered;
+  std::string refusal = bases.empty() ? "" : "no base frame to register against";
+  for (int base : bases) {
+    FrameRegistration registration = Register(base, frame);
+    if (registration.result.success) {
+      registered.emplace_back(base, std::move(registration));
+    } else {
+      refusal = "base frame " + std::to_string(base) + ": " + registration.result.reason;
+    }
+  }
+  std::stable_sort(registered.begin(), registered.end(), [](const auto& x, const auto& y) {
+    return x.second.result.inliers.size() > y.second.result.inliers.size();
+  });
+  if (bases.empty()) {
+    candidate.registered = true;  // the first frame: the origin
+  } else if (registered.empty()) {
+    candidate.reason = refusal;
+    return candidate;
+  } else {
+    candidate.registered = true;
+    candidate.base_frame = registered[0].first;
+    candidate.T_base_c = registered[0].second.result.T_a_b;
+  }
+
+  // Observations of known features through the inlier matches, best registration first.
+  std::vector<int64_t> used;
+  for (size_t r = 0; r < registered.size(); ++r) {
+    const auto& [base, registration] = registered[r];
+    if (r > 0 && static_cast<int>(registration.result.inliers.size()) < options_.min_inliers_secondary) {
+      continue;
+    }
+    const std::vector<int64_t>& base_ids = feature_ids_.at(base);
+    for (int inlier : registration.result.inliers) {
+      const DescriptorMatch& match = registration.matches[inlier];
+      const int64_t id = base_ids[match.train];
+      if (id < 0 || row_ids[match.query] >= 0) continue;
+      if (std::find(used.begin(), used.end(), id) != used.end()) continue;
+      row_ids[match.query] = id;
+      used.push_back(id);
+      candidate.observations.push_back(ObservationOf(processed.points[match.query], id));
+    }
+  }
+  candidate.common_features = static_cast<int>(candidate.observations.size());
+
+  // The remaining lifted keypoints, strongest first, become new features if the frame enters.
+  int64_t next = next_feature_id_;
+  for (int row = 0; row < rows && next - next_feature_id_ < options_.max_new_features_per_frame;
+       ++row) {
+    if (row_ids[row] >= 0) continue;
+    row_ids[row] = next;
+    candidate.observations.push_back(ObservationOf(processed.points[row], next));
+    ++next;
+  }
+  pending_[frame] = std::move(row_ids);
+  return candidate;
+}
+
+void RgbdFrameSource::Commit(const CandidateFrame& candidate) {
+  auto it = pending_.find(candidate.frame);
+  CHECK(it != pending_.end()) << "frame " << candidate.frame << " committed without Prepare";
+  int64_t max_id = next_feature_id_ - 1;
+  for (int64_t id : it->second) max_id = std::max(max_id, id);
+  // New ids were handed out from next_feature_id_ when the frame was prepared; preparing
+  // another frame in between is fine, committing another in between is not.
+  for (const FeatureObservation& obs : candidate.observations) {
+    CHECK(obs.feature_id < next_feature_id_ || obs.feature_id <= max_id);
+  }
+  next_feature_id_ = max_id + 1;
+  feature_ids_[candidate.frame] = std::move(it->second);
+  pending_.erase(it);
+  database_.Add(candidate.frame, Processed(candidate.frame).features.descriptors);
+  last_base_ = candidate.frame;
+}
+
+}  // namespace ieslam

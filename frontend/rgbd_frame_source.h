@@ -1,0 +1,81 @@
+// The selector's view of a real sequence (core/frame_source.h): frames go through the front
+// end once (SIFT, lifting; the processed frames are kept, so dropped frames can be matched
+// again for recovery), candidates are matched against the base-frame database (FLANN) and
+// registered exactly (ratio + mutual matching, RANSAC) to the best-ranked base frames.
+//
+// Data association follows the paper: a frame's keypoint inherits the feature id of the base
+// frame keypoint it is an inlier match of; when the frame enters the filter, its unmatched
+// lifted keypoints become new features (the strongest first, at most
+// max_new_features_per_frame of them, which bounds the state's growth).
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/dataset.h"
+#include "core/frame_source.h"
+#include "frontend/frame_processor.h"
+
+namespace ieslam {
+
+struct RgbdSourceOptions {
+  FrontendOptions frontend;
+  DatabaseOptions database;
+  // Base frames ranked by the database that are registered exactly; the last base frame is
+  // always tried as well.
+  int max_base_candidates = 4;
+  int max_new_features_per_frame = 100;
+  // A base frame other than the best one adds its inliers' observations only when its own
+  // registration has at least this many inliers (loop closures through a second view).
+  int min_inliers_secondary = 15;
+
+  bool Check(std::string* why) const;
+};
+
+// A frame the source could not use, and why (for report.json's frames_skipped).
+struct SourceTimings {
+  double extract_s = 0.0;
+  double lift_s = 0.0;
+  double match_s = 0.0;
+  double ransac_s = 0.0;
+  double load_s = 0.0;
+  double total() const { return extract_s + lift_s + match_s + ransac_s + load_s; }
+};
+
+class RgbdFrameSource : public FrameSource {
+ public:
+  RgbdFrameSource(const Dataset& dataset, const RgbdSourceOptions& options);
+  ~RgbdFrameSource() override;
+
+  int size() const override { return dataset_.size(); }
+  double timestamp(int frame) const override { return dataset_.info(frame).timestamp; }
+  CandidateFrame PrepareFirst(int frame) override;
+  CandidateFrame Prepare(int frame) override;
+  CandidateFrame PrepareAgainst(int frame, int base_frame) override;
+  void Commit(const CandidateFrame& candidate) override;
+
+  const SourceTimings& timings() const { return timings_; }
+  // The processed frame (features and lifted points), processing it now if needed.
+  const ProcessedFrame& Processed(int frame);
+
+ private:
+  struct Pending;
+  CandidateFrame Build(int frame, const std::vector<int>& bases);
+  FrameRegistration Register(int base, int frame);
+
+  const Dataset& dataset_;
+  RgbdSourceOptions options_;
+  FrameProcessor processor_;
+  BaseFrameDatabase database_;
+  std::map<int, ProcessedFrame> processed_;
+  std::map<int, std::vector<int64_t>> feature_ids_;  // per base frame: id per keypoint row
+  std::map<int, std::vector<int64_t>> pending_;      // per prepared frame: tentative ids
+  int64_t next_feature_id_ = 0;
+  int last_base_ = -1;
+  SourceTimings timings_;
+};
+
+}  // namespace ieslam
