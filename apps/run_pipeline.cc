@@ -68,7 +68,7 @@ Json RunOptions::ToJson() const {
       .Set("buffer", selector.buffer_size)
       .Set("interval", selector.interval)
       .Set("min_common_features", selector.min_common_features)
-      .Set("map_gain_threshold_per_common_feature", selector.map_gain_threshold_per_common_feature);
+      .Set("map_gain_threshold", selector.map_gain_threshold);
   json["filter"].Set("anchor_information", filter.anchor_information);
   json["map"].Set("voxel_size_m", map.voxel_size_m).Set("pixel_step", map.pixel_step);
   json.Set("threads", threads);

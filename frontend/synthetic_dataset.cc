@@ -93,6 +93,11 @@ bool SyntheticDatasetOptions::Check(std::string* why) const {
   std::string part;
   const Rig rig = SyntheticRig(sensor, 1.0);
   const int smallest = std::min(rig.range.camera.width, rig.range.camera.height);
+  if (frames_per_loop < 0) {
+    s << "frames_per_loop must be >= 0, got " << frames_per_loop;
+    if (why != nullptr) *why = s.str();
+    return false;
+  }
   if (frames < 1 || frames > 1000000) {
     s << "frames must be in [1, 1000000], got " << frames;
   } else if (!(frame_rate_hz > 0.0) || !(frame_rate_hz <= 1000.0)) {
@@ -187,7 +192,7 @@ void WriteSyntheticDataset(const std::string& directory, const SyntheticDatasetO
   const SyntheticScene scene(options.scene);
   const Rig rig = SyntheticRig(options.sensor, options.resolution_scale);
   const std::vector<Eigen::Isometry3d> poses =
-      BuildSyntheticTrajectory(options.trajectory, options.frames);
+      BuildSyntheticTrajectory(options.trajectory, std::max(options.frames, options.frames_per_loop));
   for (int i = 0; i < options.frames; ++i) {
     const Eigen::Vector3d p = poses[i].translation();
     const Eigen::Vector3d p_range = (poses[i] * rig.T_colour_range).translation();
@@ -268,6 +273,7 @@ std::string FormatSyntheticOptions(const SyntheticDatasetOptions& o) {
   s.precision(17);
   const SyntheticTrajectoryOptions& t = o.trajectory;
   s << "sensor: " << ToString(o.sensor) << "\nframes: " << o.frames
+    << "\nframes_per_loop: " << o.frames_per_loop
     << "\nframe_rate_hz: " << o.frame_rate_hz << "\nstart_time_s: " << o.start_time_s
     << "\nresolution_scale: " << o.resolution_scale << "\nadd_noise: " << o.add_noise
     << "\ncolour_noise_sigma: " << o.colour_noise_sigma

@@ -53,6 +53,10 @@ SyntheticSensor ParseSyntheticSensor(const std::string& name);
 struct SyntheticDatasetOptions {
   SyntheticSensor sensor = SyntheticSensor::kRgbd;
   int frames = 300;
+  // Frames of one loop of the trajectory: 0 (the default) makes `frames` one closed loop; a
+  // larger value keeps the per-frame motion of a loop that long and writes only its first
+  // `frames` frames (short sequences for tests).
+  int frames_per_loop = 0;
   double frame_rate_hz = 30.0;
   double start_time_s = 1000.0;
   // Scales both cameras' resolution and intrinsics (0.25: a 160x120 rgbd dataset for fast

@@ -191,13 +191,10 @@ class Run {
       const auto best = std::max_element(decision.gains.begin(), decision.gains.end()) -
                         decision.gains.begin();
       const double map_gain = decision.map_gains[best];
-      const int scored = decision.scored_features >= 0 ? decision.scored_features
-                                                        : buffer[best].common_features;
-      const double threshold = options_.map_gain_threshold_per_common_feature * scored;
       if (!std::isfinite(decision.gains[best])) {
         decision.reason = "unscorable";
         next = buffer.back().frame + 1;
-      } else if (map_gain < threshold && buffer.size() > 1) {
+      } else if (map_gain < options_.map_gain_threshold && buffer.size() > 1) {
         decision.reason = "threshold";
         // Each frame is prepared again after the previous one entered: its data
         // association and base frames change with every commit.
@@ -287,9 +284,7 @@ bool SelectorOptions::Check(std::string* why) const {
   }
   if (interval < 1) return fail("interval must be >= 1, got " + std::to_string(interval));
   if (min_common_features < 3) return fail("min_common_features must be >= 3");
-  if (!std::isfinite(map_gain_threshold_per_common_feature)) {
-    return fail("map_gain_threshold_per_common_feature must be finite");
-  }
+  if (!std::isfinite(map_gain_threshold)) return fail("map_gain_threshold must be finite");
   if (max_recovery_frames < 0) return fail("max_recovery_frames must be >= 0");
   return true;
 }

@@ -38,11 +38,12 @@ struct SelectorOptions {
   // A frame sharing fewer features with the base database ends the buffer: it is about the
   // least a 3-D registration needs.
   int min_common_features = 10;
-  // In nats, on the best candidate's map term (GainTerms::map): below it the buffer's frames
-  // say little about the map already built (sharp turns, feature-poor stretches), and all of
-  // them are added. log(2) per re-observed feature coordinate would mean halving its
-  // variance; 0.5 nat per re-observed feature is a frame that barely re-observes the map.
-  double map_gain_threshold_per_common_feature = 0.5;
+  // In nats, on the best candidate's map term (GainTerms::map): below it even the best
+  // frame of the buffer tells little about the map already built (few features re-observed:
+  // sharp turns, feature-poor stretches), and all of the buffer's frames are added (the
+  // paper's threshold rule). The default is what min_common_features re-observed features
+  // give when each gains half again its information: 10 * 3 * ln(1.5) ~ 12 nats.
+  double map_gain_threshold = 12.0;
   int max_recovery_frames = 60;  // dropped frames tried when a buffer cannot start
 
   bool Check(std::string* why) const;

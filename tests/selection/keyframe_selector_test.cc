@@ -103,3 +103,55 @@ TEST(KeyframeSelectorTest, OptionsAreChecked) {
 
 }  // namespace
 }  // namespace ieslam
+
+namespace ieslam {
+namespace {
+
+// Selected frames per pose in the neighbourhoods `near` against the rest of the sequence.
+std::pair<double, double> SelectionDensity(const SelectionResult& selection,
+                                           const std::vector<bool>& near) {
+  double in = 0, in_total = 0, out = 0, out_total = 0;
+  for (const FramePlacement& p : selection.frames) {
+    (near[p.frame] ? in_total : out_total) += 1;
+    if (p.selected) (near[p.frame] ? in : out) += 1;
+  }
+  return {in / in_total, out / out_total};
+}
+
+TEST(KeyframeSelectorTest, SelectsMoreFramesAtSharpTurnsThanOnStraightStretches) {
+  SimulationOptions options;
+  options.trajectory.kind = SimulatedTrajectoryKind::kRectangle;
+  options.trajectory.num_poses = 150;
+  options.trajectory.num_loops = 1;
+  const SimulatedDataset data = SimulatePaperScenario(options);
+  SelectorOptions selector;
+  selector.buffer_size = 5;
+  const KnownAssociationMetrics m = RunKnownAssociation(
+      {data.observations, data.T_w_c_true, data.camera}, selector, InformationFilterOptions());
+  std::vector<bool> near_corner(data.num_poses(), false);
+  for (int corner : data.corner_poses) {
+    for (int k = std::max(0, corner - 3); k <= std::min(data.num_poses() - 1, corner + 3); ++k) {
+      near_corner[k] = true;
+    }
+  }
+  const auto [at_turns, straight] = SelectionDensity(m.selection, near_corner);
+  EXPECT_GT(at_turns, 1.5 * straight) << "turns " << at_turns << " straight " << straight;
+}
+
+TEST(KeyframeSelectorTest, SelectsMoreFramesInAFeaturePoorStretch) {
+  SimulationOptions options;
+  options.trajectory.num_poses = 150;
+  options.trajectory.num_loops = 1;
+  options.feature_poor_start = 0.4;
+  options.feature_poor_length = 0.2;
+  const SimulatedDataset data = SimulatePaperScenario(options);
+  SelectorOptions selector;
+  selector.buffer_size = 5;
+  const KnownAssociationMetrics m = RunKnownAssociation(
+      {data.observations, data.T_w_c_true, data.camera}, selector, InformationFilterOptions());
+  const auto [poor, rich] = SelectionDensity(m.selection, data.in_feature_poor_stretch);
+  EXPECT_GT(poor, 1.5 * rich) << "feature-poor " << poor << " feature-rich " << rich;
+}
+
+}  // namespace
+}  // namespace ieslam
