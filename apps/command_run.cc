@@ -4,6 +4,7 @@
 
 #include "apps/app_util.h"
 #include "apps/commands.h"
+#include "apps/config_file.h"
 #include "apps/run_pipeline.h"
 #include "core/error.h"
 
@@ -34,15 +35,13 @@ int RunCommand(const CommandArgs& args) {
   if (flags.Has("refine")) {
     throw ConfigError("--refine: the bundle adjustment is not built yet (issue 7)");
   }
-  if (flags.Has("config")) {
-    throw ConfigError("--config: configuration files are not supported yet; use flags");
-  }
   RunOptions options;
+  if (flags.Has("config")) ApplyConfigFile(flags.Require("config"), &options);
   options.dataset = flags.Require("dataset");
   options.output = flags.Require("output");
   options.dataset_options = DatasetOptionsFromFlags(flags);
   const std::string selector = flags.GetString("selector", "info");
-  if (!ParseSelectorKind(selector, &options.selector.kind)) {
+  if (flags.Has("selector") && !ParseSelectorKind(selector, &options.selector.kind)) {
     throw ConfigError("--selector must be info, all, interval or deadreckoning, got '" + selector + "'");
   }
   options.selector.buffer_size = flags.GetInt("buffer", options.selector.buffer_size, 1, 100);

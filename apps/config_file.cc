@@ -1,0 +1,157 @@
+#include "apps/config_file.h"
+
+#include <cmath>
+#include <functional>
+#include <map>
+
+#include <opencv2/core.hpp>
+
+#include "core/error.h"
+#include "core/file_util.h"
+
+namespace ieslam {
+namespace {
+
+// Reads one section's keys into typed targets.
+class Section {
+ public:
+  Section(const cv::FileNode& node, std::string where) : node_(node), where_(std::move(where)) {}
+
+  void Double(const std::string& key, double* target) {
+    known_.push_back(key);
+    const cv::FileNode n = node_[key];
+    if (n.empty()) return;
+    if (!n.isReal() && !n.isInt()) throw ConfigError(where_ + "." + key + " must be a number");
+    *target = static_cast<double>(n);
+    if (!std::isfinite(*target)) throw ConfigError(where_ + "." + key + " must be finite");
+  }
+  void Int(const std::string& key, int* target) {
+    known_.push_back(key);
+    const cv::FileNode n = node_[key];
+    if (n.empty()) return;
+    if (!n.isInt()) throw ConfigError(where_ + "." + key + " must be an integer");
+    *target = static_cast<int>(n);
+  }
+  void Bool(const std::string& key, bool* target) {
+    int value = *target ? 1 : 0;
+    Int(key, &value);
+    if (value != 0 && value != 1) throw ConfigError(where_ + "." + key + " must be 0 or 1");
+    *target = value == 1;
+  }
+  void String(const std::string& key, std::string* target) {
+    known_.push_back(key);
+    const cv::FileNode n = node_[key];
+    if (n.empty()) return;
+    if (!n.isString()) throw ConfigError(where_ + "." + key + " must be a string");
+    *target = static_cast<std::string>(n);
+  }
+  // Every key of the section must have been asked for.
+  void RejectUnknown() const {
+    for (const cv::FileNode& child : node_) {
+      if (std::find(known_.begin(), known_.end(), child.name()) == known_.end()) {
+        throw ConfigError(where_ + "." + child.name() + " is not a known option");
+      }
+    }
+  }
+
+ private:
+  cv::FileNode node_;
+  std::string where_;
+  std::vector<std::string> known_;
+};
+
+}  // namespace
+
+void ApplyConfigFile(const std::string& path, RunOptions* o) {
+  RequireFile(path, "config file");
+  cv::FileStorage fs;
+  try {
+    fs.open(path, cv::FileStorage::READ | cv::FileStorage::FORMAT_YAML);
+  } catch (const cv::Exception& e) {
+    throw ConfigError(path + ": not a readable YAML file: " + e.what());
+  }
+  if (!fs.isOpened()) throw ConfigError(path + ": cannot be parsed as YAML");
+  using Reader = std::function<void(Section*)>;
+  RgbdSourceOptions& s = o->source;
+  const std::map<std::string, Reader> sections = {
+      {"features",
+       [&](Section* x) {
+         x->Int("max_features", &s.frontend.features.max_features);
+         x->Double("contrast_threshold", &s.frontend.features.contrast_threshold);
+         x->Double("edge_threshold", &s.frontend.features.edge_threshold);
+         x->Int("octave_layers", &s.frontend.features.octave_layers);
+         x->Double("image_scale", &s.frontend.features.image_scale);
+       }},
+      {"matching",
+       [&](Section* x) {
+         x->Double("ratio", &s.frontend.matching.ratio);
+         x->Bool("mutual", &s.frontend.matching.mutual);
+       }},
+      {"lifting",
+       [&](Section* x) {
+         x->Int("window_radius", &s.frontend.lifting.window_radius);
+         x->Double("sigma_multiplier", &s.frontend.lifting.sigma_multiplier);
+         x->Double("footprint_multiplier", &s.frontend.lifting.footprint_multiplier);
+         x->Double("edge_sigma_multiplier", &s.frontend.lifting.edge_sigma_multiplier);
+         x->Int("min_valid_in_window", &s.frontend.lifting.min_valid_in_window);
+       }},
+      {"registration",
+       [&](Section* x) {
+         x->Double("inlier_threshold_m", &s.frontend.registration.inlier_threshold_m);
+         x->Int("max_iterations", &s.frontend.registration.max_iterations);
+         x->Double("probability", &s.frontend.registration.probability);
+         x->Int("min_inliers", &s.frontend.registration.min_inliers);
+         x->Double("min_spread_m", &s.frontend.registration.min_spread_m);
+       }},
+      {"database",
+       [&](Section* x) {
+         x->Int("trees", &s.database.trees);
+         x->Int("checks", &s.database.checks);
+         x->Int("neighbours", &s.database.neighbours);
+         x->Double("ratio", &s.database.ratio);
+       }},
+      {"source",
+       [&](Section* x) {
+         x->Int("max_base_candidates", &s.max_base_candidates);
+         x->Int("max_new_features_per_frame", &s.max_new_features_per_frame);
+         x->Int("min_inliers_secondary", &s.min_inliers_secondary);
+       }},
+      {"selector",
+       [&](Section* x) {
+         std::string kind = SelectorKindName(o->selector.kind);
+         x->String("kind", &kind);
+         if (!ParseSelectorKind(kind, &o->selector.kind)) {
+           throw ConfigError(path + ": selector.kind must be info, all, interval or deadreckoning");
+         }
+         x->Int("buffer", &o->selector.buffer_size);
+         x->Int("interval", &o->selector.interval);
+         x->Int("min_common_features", &o->selector.min_common_features);
+         x->Double("map_gain_threshold", &o->selector.map_gain_threshold);
+         x->Int("max_recovery_frames", &o->selector.max_recovery_frames);
+       }},
+      {"filter", [&](Section* x) { x->Double("anchor_information", &o->filter.anchor_information); }},
+      {"map",
+       [&](Section* x) {
+         x->Double("voxel_size_m", &o->map.voxel_size_m);
+         x->Int("pixel_step", &o->map.pixel_step);
+       }},
+  };
+  const cv::FileNode root = fs.root();
+  for (const cv::FileNode& node : root) {
+    const auto it = sections.find(node.name());
+    if (it == sections.end()) {
+      throw ConfigError(path + ": unknown section '" + node.name() + "'");
+    }
+    if (!node.isMap()) throw ConfigError(path + ": section '" + node.name() + "' must be a map");
+    Section section(node, path + ": " + node.name());
+    it->second(&section);
+    section.RejectUnknown();
+  }
+  std::string why;
+  if (!o->source.Check(&why) || !o->selector.Check(&why) || !o->filter.Check(&why) ||
+      !o->map.Check(&why)) {
+    throw ConfigError(path + ": " + why);
+  }
+}
+
+}  // namespace ieslam

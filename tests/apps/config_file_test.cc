@@ -1,0 +1,62 @@
+#include "apps/config_file.h"
+
+#include <filesystem>
+#include <fstream>
+
+#include <gtest/gtest.h>
+
+#include "core/error.h"
+
+namespace ieslam {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string WriteTemp(const std::string& name, const std::string& content) {
+  const fs::path path = fs::temp_directory_path() / ("ieslam_config_test_" + name + ".yaml");
+  std::ofstream(path) << content;
+  return path.string();
+}
+
+std::string ErrorOf(const std::string& content) {
+  RunOptions options;
+  try {
+    ApplyConfigFile(WriteTemp("bad", content), &options);
+  } catch (const ConfigError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(ConfigFileTest, TheShippedDefaultFileHoldsTheDefaults) {
+  RunOptions from_file;
+  ApplyConfigFile(std::string(IESLAM_SOURCE_DIR) + "/data/config/default.yaml", &from_file);
+  EXPECT_EQ(from_file.ToJson().Dump(), RunOptions().ToJson().Dump());
+}
+
+TEST(ConfigFileTest, ValuesOverrideDefaults) {
+  RunOptions options;
+  ApplyConfigFile(WriteTemp("ok", "%YAML:1.0\nselector: { kind: \"all\", buffer: 5 }\n"
+                                  "features: { image_scale: 1.0 }\n"),
+                  &options);
+  EXPECT_EQ(options.selector.kind, SelectorKind::kAll);
+  EXPECT_EQ(options.selector.buffer_size, 5);
+  EXPECT_EQ(options.source.frontend.features.image_scale, 1.0);
+  EXPECT_EQ(options.source.frontend.features.max_features, FeatureOptions().max_features);
+}
+
+TEST(ConfigFileTest, BadFilesNameTheKey) {
+  EXPECT_NE(ErrorOf("%YAML:1.0\nselector: { buffr: 3 }\n").find("selector.buffr"), std::string::npos);
+  EXPECT_NE(ErrorOf("%YAML:1.0\nselektor: { buffer: 3 }\n").find("selektor"), std::string::npos);
+  EXPECT_NE(ErrorOf("%YAML:1.0\nselector: { buffer: \"three\" }\n").find("selector.buffer"),
+            std::string::npos);
+  EXPECT_NE(ErrorOf("%YAML:1.0\nselector: { buffer: -4 }\n").find("-4"), std::string::npos);
+  EXPECT_NE(ErrorOf("%YAML:1.0\nselector: { kind: \"greedy\" }\n").find("selector.kind"),
+            std::string::npos);
+  EXPECT_NE(ErrorOf("%YAML:1.0\nmap: { voxel_size_m: .nan }\n").find("map"), std::string::npos);
+  RunOptions options;
+  EXPECT_THROW(ApplyConfigFile("/no/such/config.yaml", &options), DataError);
+}
+
+}  // namespace
+}  // namespace ieslam
