@@ -1,4 +1,6 @@
 // `ieslam run`: the main job.
+#include <atomic>
+#include <csignal>
 #include <cstdio>
 #include <iostream>
 
@@ -9,6 +11,14 @@
 #include "core/error.h"
 
 namespace ieslam {
+namespace {
+
+// Set by SIGINT; the run stops at the next frame boundary and still writes its outputs.
+std::atomic<bool> g_interrupted{false};
+
+void OnInterrupt(int) { g_interrupted.store(true); }
+
+}  // namespace
 
 int RunCommand(const CommandArgs& args) {
   std::vector<FlagSpec> specs = DatasetFlagSpecs();
@@ -49,7 +59,9 @@ int RunCommand(const CommandArgs& args) {
   options.seed = static_cast<uint32_t>(flags.GetInt("seed", 1, 0, 2000000000));
   options.threads = flags.GetInt("threads", 0, 0, 256);
   options.quiet = flags.Has("quiet");
-  const RunSummary summary = RunPipeline(options);
+  std::signal(SIGINT, OnInterrupt);
+  const RunSummary summary = RunPipeline(options, [] { return g_interrupted.load(); });
+  std::signal(SIGINT, SIG_DFL);
   std::printf("run: %d of %d frames selected, %zu skipped, state dimension %d\n",
               summary.frames_selected, summary.frames_total, summary.frames_skipped.size(),
               summary.state_dim);
@@ -58,6 +70,11 @@ int RunCommand(const CommandArgs& args) {
                 summary.ate_trajectory_m);
   }
   std::printf("run: results in %s\n", options.output.c_str());
+  if (summary.interrupted) {
+    std::fprintf(stderr, "run: interrupted after %d of %d frames; outputs cover those frames\n",
+                 summary.frames_processed, summary.frames_total);
+    return 130;
+  }
   return 0;
 }
 

@@ -75,7 +75,7 @@ Json RunOptions::ToJson() const {
   return json;
 }
 
-RunSummary RunPipeline(const RunOptions& options) {
+RunSummary RunPipeline(const RunOptions& options, const std::function<bool()>& stop) {
   std::string why;
   if (!options.Check(&why)) throw ConfigError(why);
   const auto start = std::chrono::steady_clock::now();
@@ -92,7 +92,8 @@ RunSummary RunPipeline(const RunOptions& options) {
   const SelectionResult selection = KeyframeSelector(options.selector).Run(
       &source, &filter, [&progress](int done, int selected) {
         progress.Update(done, std::to_string(selected) + " selected");
-      });
+      },
+      stop);
   progress.Finish();
 
   // Trajectories.
@@ -104,7 +105,9 @@ RunSummary RunPipeline(const RunOptions& options) {
   std::sort(keyframes.begin(), keyframes.end(),
             [](const TimedPose& a, const TimedPose& b) { return a.timestamp < b.timestamp; });
   RunSummary summary;
-  for (int f = 0; f < dataset->size(); ++f) {
+  summary.interrupted = selection.interrupted;
+  summary.frames_processed = selection.frames_processed;
+  for (int f = 0; f < selection.frames_processed; ++f) {
     if (poses[f]) {
       trajectory.push_back({dataset->info(f).timestamp, *poses[f]});
     } else {
@@ -160,7 +163,8 @@ RunSummary RunPipeline(const RunOptions& options) {
       .Set("state_dim", summary.state_dim)
       .Set("poses", filter.num_poses())
       .Set("features", filter.num_features())
-      .Set("interrupted", false);
+      .Set("interrupted", summary.interrupted)
+      .Set("frames_processed", summary.frames_processed);
   const SourceTimings& t = source.timings();
   report["seconds"]
       .Set("total", SecondsSince(start))

@@ -2,6 +2,7 @@
 // The command parses flags into RunOptions; tests call RunPipeline directly.
 #pragma once
 
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -32,6 +33,8 @@ struct RunOptions {
 };
 
 struct RunSummary {
+  bool interrupted = false;
+  int frames_processed = 0;
   int frames_total = 0;
   int frames_selected = 0;
   std::vector<std::pair<int, std::string>> frames_skipped;
@@ -41,7 +44,9 @@ struct RunSummary {
   Json report;
 };
 
-// Runs the whole job and writes every output file into options.output.
-RunSummary RunPipeline(const RunOptions& options);
+// Runs the whole job and writes every output file into options.output. `stop`, if set, is
+// polled between selector decisions: when it returns true the run ends there and the outputs
+// of what was processed are written, with "interrupted": true in the report.
+RunSummary RunPipeline(const RunOptions& options, const std::function<bool()>& stop = nullptr);
 
 }  // namespace ieslam

@@ -172,6 +172,7 @@ class Run {
     const int n = source_->size();
     int next = 1;
     while (next < n) {
+      if (Stopped(next)) return;
       std::vector<CandidateFrame> buffer;
       int f = next;
       for (; f < n && static_cast<int>(buffer.size()) < options_.buffer_size; ++f) {
@@ -217,6 +218,7 @@ class Run {
   void RunEvery(int step) {
     const int n = source_->size();
     for (int f = 1; f < n; ++f) {
+      if (Stopped(f)) return;
       if (f % step != 0) continue;
       const CandidateFrame c = Prepare(f);
       if (Usable(c) && Add(c)) {
@@ -243,7 +245,16 @@ class Run {
     if (progress_) progress_(std::min(done, source_->size()), static_cast<int>(result_->selected.size()));
   }
 
+  // True (and the result marked interrupted) when the caller asked to stop.
+  bool Stopped(int next_frame) {
+    if (!stop_ || !stop_()) return false;
+    result_->interrupted = true;
+    result_->frames_processed = next_frame;
+    return true;
+  }
+
   std::function<void(int, int)> progress_;
+  std::function<bool()> stop_;
   int last_base_ = 0;
 
  private:
@@ -295,9 +306,11 @@ KeyframeSelector::KeyframeSelector(const SelectorOptions& options) : options_(op
 }
 
 SelectionResult KeyframeSelector::Run(FrameSource* source, InformationFilter* filter,
-                                      const std::function<void(int, int)>& progress) const {
+                                      const std::function<void(int, int)>& progress,
+                                      const std::function<bool()>& stop) const {
   SelectionResult result;
   const int n = source->size();
+  result.frames_processed = n;
   if (n == 0) return result;
   result.frames.resize(n);
   for (int f = 0; f < n; ++f) result.frames[f].frame = f;
@@ -313,6 +326,11 @@ SelectionResult KeyframeSelector::Run(FrameSource* source, InformationFilter* fi
     result.selected.push_back(0);
     int last = 0;
     for (int f = 1; f < n; ++f) {
+      if (stop && stop()) {
+        result.interrupted = true;
+        result.frames_processed = f;
+        return result;
+      }
       const auto start = Clock::now();
       const CandidateFrame c = source->PrepareAgainst(f, last);
       result.seconds_selection += Since(start);
@@ -336,6 +354,7 @@ SelectionResult KeyframeSelector::Run(FrameSource* source, InformationFilter* fi
   CHECK(filter != nullptr);
   class Run run(options_, source, filter, &result);
   run.progress_ = progress;
+  run.stop_ = stop;
   run.AddFirst(0);
   switch (options_.kind) {
     case SelectorKind::kInfo: run.RunInfo(); break;

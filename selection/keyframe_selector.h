@@ -75,6 +75,10 @@ struct SelectionResult {
   std::vector<FramePlacement> frames;  // one per frame of the source
   // Dead reckoning only: the chained pose of every frame (no filter).
   std::vector<Eigen::Isometry3d> chained_T_w_c;
+  // Stopped early by the caller's stop request: frames from `frames_processed` on were not
+  // looked at.
+  bool interrupted = false;
+  int frames_processed = 0;
   double seconds_selection = 0.0;  // preparing candidates and scoring them
   double seconds_filter = 0.0;     // adding to the filter (update + recovery)
 };
@@ -85,8 +89,11 @@ class KeyframeSelector {
 
   // Runs over every frame of `source`, adding the selected ones to `filter` (unused by
   // dead reckoning). `progress`, if set, is called with (frames done, frames selected).
+  // `stop`, if set, is polled between decisions; when it returns true the run ends there
+  // (result.interrupted), with everything decided so far intact.
   SelectionResult Run(FrameSource* source, InformationFilter* filter,
-                      const std::function<void(int, int)>& progress = nullptr) const;
+                      const std::function<void(int, int)>& progress = nullptr,
+                      const std::function<bool()>& stop = nullptr) const;
 
   // The pose of every placed frame: the filter's estimate for selected frames, the base
   // frame's estimate composed with the registration for the others (dead reckoning: the

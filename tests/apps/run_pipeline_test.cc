@@ -5,6 +5,9 @@
 #include <fstream>
 #include <sstream>
 
+#include <csignal>
+
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <gtest/gtest.h>
@@ -93,6 +96,50 @@ TEST_F(RunPipelineTest, MissingDatasetIsADataErrorNamingIt) {
     FAIL() << "expected DataError";
   } catch (const DataError& e) {
     EXPECT_NE(std::string(e.what()).find("no_such_dataset"), std::string::npos);
+  }
+}
+
+}  // namespace
+}  // namespace ieslam
+
+namespace ieslam {
+namespace {
+
+TEST_F(RunPipelineTest, StopRequestEndsTheRunAndStillWritesItsOutputs) {
+  int polls = 0;
+  const RunSummary summary = RunPipeline(Options("stopped"), [&polls] { return ++polls > 4; });
+  EXPECT_TRUE(summary.interrupted);
+  EXPECT_GT(summary.frames_processed, 1);
+  EXPECT_LT(summary.frames_processed, 36);
+  const std::string report = ReadFile(root_ / "stopped" / "report.json");
+  EXPECT_NE(report.find("\"interrupted\": true"), std::string::npos);
+  // Frames the run never reached are not reported as skipped.
+  EXPECT_TRUE(summary.frames_skipped.empty());
+  EXPECT_TRUE(fs::is_regular_file(root_ / "stopped" / "trajectory.tum"));
+}
+
+TEST_F(RunPipelineTest, SigintMakesTheCommandExit130WithItsOutputs) {
+  const std::string out = (root_ / "sigint").string();
+  const pid_t child = fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    const std::string dataset = (root_ / "synthetic").string();
+    execl(IESLAM_BINARY, "ieslam", "run", "--dataset", dataset.c_str(), "--output", out.c_str(),
+          "--threads", "1", "--quiet", static_cast<char*>(nullptr));
+    _exit(127);
+  }
+  // Wait until the run is under way (its first frames take well under two seconds).
+  ::usleep(1500 * 1000);
+  ::kill(child, SIGINT);
+  int status = 0;
+  ::waitpid(child, &status, 0);
+  ASSERT_TRUE(WIFEXITED(status));
+  const int code = WEXITSTATUS(status);
+  if (code == 0) GTEST_SKIP() << "the run finished before the signal arrived";
+  EXPECT_EQ(code, 130);
+  EXPECT_NE(ReadFile(fs::path(out) / "report.json").find("\"interrupted\": true"), std::string::npos);
+  for (const auto& entry : fs::directory_iterator(out)) {
+    EXPECT_EQ(entry.path().string().find(".tmp."), std::string::npos) << entry.path();
   }
 }
 
