@@ -42,9 +42,6 @@ int RunCommand(const CommandArgs& args) {
                             specs);
     return 0;
   }
-  if (flags.Has("refine")) {
-    throw ConfigError("--refine: the bundle adjustment is not built yet (issue 7)");
-  }
   RunOptions options;
   if (flags.Has("config")) ApplyConfigFile(flags.Require("config"), &options);
   options.dataset = flags.Require("dataset");
@@ -59,6 +56,7 @@ int RunCommand(const CommandArgs& args) {
   options.seed = static_cast<uint32_t>(flags.GetInt("seed", 1, 0, 2000000000));
   options.threads = flags.GetInt("threads", 0, 0, 256);
   options.quiet = flags.Has("quiet");
+  options.refine = flags.Has("refine");
   std::signal(SIGINT, OnInterrupt);
   const RunSummary summary = RunPipeline(options, [] { return g_interrupted.load(); });
   std::signal(SIGINT, SIG_DFL);
@@ -68,6 +66,7 @@ int RunCommand(const CommandArgs& args) {
   if (summary.ate_keyframes_m >= 0.0) {
     std::printf("run: ATE RMSE keyframes %.4f m, all frames %.4f m\n", summary.ate_keyframes_m,
                 summary.ate_trajectory_m);
+    if (options.refine) std::printf("run: ATE RMSE refined keyframes %.4f m\n", summary.ate_refined_m);
   }
   std::printf("run: results in %s\n", options.output.c_str());
   if (summary.interrupted) {

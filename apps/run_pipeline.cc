@@ -7,6 +7,7 @@
 
 #include "apps/app_util.h"
 #include "backend/evaluation.h"
+#include "backend/filter_smoother_comparison.h"
 #include "core/error.h"
 #include "core/file_util.h"
 
@@ -133,6 +134,42 @@ RunSummary RunPipeline(const RunOptions& options, const std::function<bool()>& s
         AteOfFiles(JoinPath(out, "groundtruth.tum"), JoinPath(out, "trajectory.tum"));
   }
 
+  // Batch refinement: the bundle adjustment over the selected poses and their features,
+  // started from the filter's estimate, with the same observations and Q.
+  Json comparison;
+  double ba_seconds = 0.0;
+  if (options.refine && !selection.chained_T_w_c.empty()) {
+    throw ConfigError("--refine needs a filter: not available with --selector deadreckoning");
+  }
+  if (options.refine) {
+    const auto ba_start = std::chrono::steady_clock::now();
+    BundleAdjustmentOptions ba = options.ba;
+    if (options.threads > 0) ba.num_threads = options.threads;
+    const BundleAdjustmentResult refined = SolveBundleAdjustment(
+        MakeProblemFromFilter(filter, selection.observations), dataset->rig().colour, ba);
+    ba_seconds = SecondsSince(ba_start);
+    Trajectory refined_trajectory;
+    for (const auto& [frame, T_w_c] : refined.T_w_c) {
+      refined_trajectory.push_back({dataset->info(frame).timestamp, T_w_c});
+    }
+    std::sort(refined_trajectory.begin(), refined_trajectory.end(),
+              [](const TimedPose& a, const TimedPose& b) { return a.timestamp < b.timestamp; });
+    WriteTumTrajectory(JoinPath(out, "refined.tum"), refined_trajectory,
+                       "ieslam bundle-adjusted keyframes");
+    if (has_gt) {
+      summary.ate_refined_m = AteOfFiles(JoinPath(out, "groundtruth.tum"), JoinPath(out, "refined.tum"));
+    }
+    comparison = ComparisonToJson(
+        CompareFilterToSmoother(FilterEstimate(filter), SmootherEstimate(refined)), false);
+    comparison.Set("ba", Json::Object()
+                             .Set("initial_cost", refined.initial_cost)
+                             .Set("final_cost", refined.final_cost)
+                             .Set("iterations", refined.iterations)
+                             .Set("residuals", refined.num_residuals)
+                             .Set("termination", refined.termination)
+                             .Set("seconds", refined.solve_time_s));
+  }
+
   // The dense map: the selected frames' clouds at their estimated poses.
   if (options.write_map) {
     DenseMap map(options.map);
@@ -172,9 +209,12 @@ RunSummary RunPipeline(const RunOptions& options, const std::function<bool()>& s
       .Set("selection", selection.seconds_selection - t.total() > 0 ? selection.seconds_selection - t.total() : 0.0)
       .Set("filter", selection.seconds_filter)
       .Set("load", t.load_s);
+  if (options.refine) report["seconds"].Set("ba", ba_seconds);
   if (has_gt) {
     report["ate_rmse_m"].Set("keyframes", summary.ate_keyframes_m).Set("trajectory", summary.ate_trajectory_m);
+    if (options.refine) report["ate_rmse_m"].Set("refined", summary.ate_refined_m);
   }
+  if (options.refine) report.Set("filter_vs_smoother", comparison);
   Json decisions = Json::Array();
   for (const SelectionDecision& d : selection.decisions) {
     decisions.Push(Json::Object()

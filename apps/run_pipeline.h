@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "backend/bundle_adjustment.h"
 #include "backend/information_filter.h"
 #include "core/dataset.h"
 #include "core/json.h"
@@ -23,6 +24,8 @@ struct RunOptions {
   SelectorOptions selector;
   InformationFilterOptions filter;
   DenseMapOptions map;
+  bool refine = false;  // bundle-adjust the selected frames after the filter
+  BundleAdjustmentOptions ba;
   uint32_t seed = 1;
   int threads = 0;  // 0: OpenCV's default; 1: the deterministic single-thread mode
   bool quiet = false;
@@ -41,6 +44,7 @@ struct RunSummary {
   int state_dim = 0;
   double ate_keyframes_m = -1.0;   // < 0: no ground truth
   double ate_trajectory_m = -1.0;
+  double ate_refined_m = -1.0;
   Json report;
 };
 

@@ -56,6 +56,7 @@ class Run {
     result_->seconds_filter += Since(start);
     source_->Commit(c);
     result_->selected.push_back(c.frame);
+    result_->observations[c.frame] = c.observations;
     FramePlacement& placement = result_->frames[c.frame];
     placement.selected = placement.placed = true;
     placement.skip_reason.clear();
@@ -92,6 +93,7 @@ class Run {
     result_->seconds_filter += Since(start);
     source_->Commit(c);
     result_->selected.push_back(frame);
+    result_->observations[frame] = c.observations;
     result_->frames[frame].selected = result_->frames[frame].placed = true;
     result_->decisions.push_back(Added(frame, "first"));
     last_base_ = frame;

@@ -16,6 +16,7 @@
 #pragma once
 
 #include <functional>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -71,6 +72,8 @@ struct FramePlacement {
 
 struct SelectionResult {
   std::vector<int> selected;  // in the order added
+  // The observations each selected frame entered the filter with (for bundle adjustment).
+  std::map<int, std::vector<FeatureObservation>> observations;
   std::vector<SelectionDecision> decisions;
   std::vector<FramePlacement> frames;  // one per frame of the source
   // Dead reckoning only: the chained pose of every frame (no filter).

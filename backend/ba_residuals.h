@@ -1,0 +1,84 @@
+// The bundle adjustment's residual: the filter's (u, v, d) observation (METHOD.md §3,
+// core/observation.h) of a world point from a camera pose, whitened by its noise Q.
+//
+// The pose is held as a unit quaternion q_w_c (Eigen's x, y, z, w storage, the layout
+// ceres::EigenQuaternionManifold expects) and a translation t_w_c, camera-to-world, so that
+// the optimiser never meets the Euler singularity the filter's 6-vector has at beta = +-90 deg.
+// Jacobians come from ceres::AutoDiffCostFunction; tests/backend/bundle_adjustment_test.cc
+// checks them with ceres::GradientChecker.
+#pragma once
+
+#include <string>
+
+#include <ceres/autodiff_cost_function.h>
+#include <Eigen/Cholesky>
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "core/camera.h"
+
+namespace ieslam {
+
+// Upper-triangular W with W^T W = Q^-1, i.e. W = L^T for the Cholesky factor L L^T = Q^-1:
+// the residual W (h(x) - z) then has identity covariance and the cost 1/2 |W e|^2 is the
+// filter's 1/2 e^T Q^-1 e. Returns false when Q is not symmetric positive definite.
+inline bool SqrtInformation(const Eigen::Matrix3d& Q, Eigen::Matrix3d* W) {
+  if (!Q.allFinite() || !Q.isApprox(Q.transpose(), 1e-9)) return false;
+  const Eigen::LLT<Eigen::Matrix3d> llt_q(Q);
+  if (llt_q.info() != Eigen::Success) return false;
+  const Eigen::Matrix3d information = llt_q.solve(Eigen::Matrix3d::Identity());
+  const Eigen::LLT<Eigen::Matrix3d> llt(0.5 * (information + information.transpose()));
+  if (llt.info() != Eigen::Success) return false;
+  *W = llt.matrixU();
+  return W->allFinite();
+}
+
+// r = W (h(q_w_c, t_w_c, p_w) - z), with h = (fx x/z + cx, fy y/z + cy, |p_c|) and
+// p_c = R(q_w_c)^T (p_w - t_w_c).
+class UvdResidual {
+ public:
+  UvdResidual(const PinholeCamera& camera, const Eigen::Vector3d& z,
+              const Eigen::Matrix3d& sqrt_information, double min_depth_m)
+      : fx_(camera.fx),
+        fy_(camera.fy),
+        cx_(camera.cx),
+        cy_(camera.cy),
+        z_(z),
+        W_(sqrt_information),
+        min_depth_m_(min_depth_m) {}
+
+  template <typename T>
+  bool operator()(const T* q_w_c_ptr, const T* t_w_c_ptr, const T* p_w_ptr, T* residual) const {
+    const Eigen::Map<const Eigen::Quaternion<T>> q_w_c(q_w_c_ptr);
+    const Eigen::Map<const Eigen::Matrix<T, 3, 1>> t_w_c(t_w_c_ptr);
+    const Eigen::Map<const Eigen::Matrix<T, 3, 1>> p_w(p_w_ptr);
+    // The rotation matrix rather than q * v: Eigen's quaternion-vector product assumes a
+    // unit norm, and the gradient checker's finite differences step off the unit sphere.
+    const Eigen::Matrix<T, 3, 3> R_w_c = q_w_c.normalized().toRotationMatrix();
+    const Eigen::Matrix<T, 3, 1> p_c = R_w_c.transpose() * (p_w - t_w_c);
+    // Behind or on the camera plane the model has no derivative: the step is rejected.
+    if (!(p_c[2] > T(min_depth_m_))) return false;
+    Eigen::Matrix<T, 3, 1> error;
+    error[0] = T(fx_) * p_c[0] / p_c[2] + T(cx_) - T(z_[0]);
+    error[1] = T(fy_) * p_c[1] / p_c[2] + T(cy_) - T(z_[1]);
+    error[2] = p_c.norm() - T(z_[2]);
+    Eigen::Map<Eigen::Matrix<T, 3, 1>> r(residual);
+    r = W_.cast<T>() * error;
+    return true;
+  }
+
+  // Parameter blocks: q_w_c (4), t_w_c (3), p_w (3).
+  static ceres::CostFunction* Create(const PinholeCamera& camera, const Eigen::Vector3d& z,
+                                     const Eigen::Matrix3d& sqrt_information, double min_depth_m) {
+    return new ceres::AutoDiffCostFunction<UvdResidual, 3, 4, 3, 3>(
+        new UvdResidual(camera, z, sqrt_information, min_depth_m));
+  }
+
+ private:
+  double fx_, fy_, cx_, cy_;
+  Eigen::Vector3d z_;
+  Eigen::Matrix3d W_;
+  double min_depth_m_;
+};
+
+}  // namespace ieslam

@@ -1,0 +1,329 @@
+#include "backend/bundle_adjustment.h"
+
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <memory>
+#include <set>
+#include <sstream>
+#include <utility>
+
+#include <ceres/ceres.h>
+#include <glog/logging.h>
+
+#include "backend/ba_residuals.h"
+#include "backend/information_filter.h"
+#include "core/error.h"
+
+namespace ieslam {
+namespace {
+
+double SecondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+// The parameter blocks Ceres works on, all in one buffer laid out in frame-id then
+// feature-id order: 4 quaternion (Eigen x, y, z, w) + 3 translation doubles per pose, then 3
+// per feature. One buffer matters for reproducibility, not only locality: Ceres keeps the
+// blocks of an elimination group in a set ordered by address, so blocks allocated one by one
+// would be ordered (and factored) differently from one solve to the next.
+class Parameters {
+ public:
+  explicit Parameters(const BundleAdjustmentProblem& problem) {
+    buffer_.resize(7 * problem.T_w_c.size() + 3 * problem.p_w.size());
+    size_t offset = 0;
+    for (const auto& [frame_id, T] : problem.T_w_c) {
+      pose_offset_[frame_id] = offset;
+      Eigen::Map<Eigen::Vector4d> q_w_c(&buffer_[offset]);
+      Eigen::Map<Eigen::Vector3d> t_w_c(&buffer_[offset + 4]);
+      q_w_c = Eigen::Quaterniond(T.linear()).normalized().coeffs();
+      t_w_c = T.translation();
+      offset += 7;
+    }
+    for (const auto& [feature_id, p_w] : problem.p_w) {
+      feature_offset_[feature_id] = offset;
+      Eigen::Map<Eigen::Vector3d> p(&buffer_[offset]);
+      p = p_w;
+      offset += 3;
+    }
+  }
+  Parameters(const Parameters&) = delete;
+  Parameters& operator=(const Parameters&) = delete;
+
+  bool HasPose(int frame_id) const { return pose_offset_.count(frame_id) > 0; }
+  bool HasFeature(int64_t feature_id) const { return feature_offset_.count(feature_id) > 0; }
+  double* q_w_c(int frame_id) { return &buffer_[pose_offset_.at(frame_id)]; }
+  double* t_w_c(int frame_id) { return &buffer_[pose_offset_.at(frame_id) + 4]; }
+  double* p_w(int64_t feature_id) { return &buffer_[feature_offset_.at(feature_id)]; }
+  const std::map<int, size_t>& pose_offsets() const { return pose_offset_; }
+  const std::map<int64_t, size_t>& feature_offsets() const { return feature_offset_; }
+
+  Eigen::Isometry3d Pose(int frame_id) const {
+    const double* x = &buffer_[pose_offset_.at(frame_id)];
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.linear() =
+        Eigen::Quaterniond(Eigen::Map<const Eigen::Vector4d>(x)).normalized().toRotationMatrix();
+    T.translation() = Eigen::Map<const Eigen::Vector3d>(x + 4);
+    return T;
+  }
+  Eigen::Vector3d Feature(int64_t feature_id) const {
+    return Eigen::Map<const Eigen::Vector3d>(&buffer_[feature_offset_.at(feature_id)]);
+  }
+
+ private:
+  std::vector<double> buffer_;
+  std::map<int, size_t> pose_offset_;
+  std::map<int64_t, size_t> feature_offset_;
+};
+
+std::string ObservationName(const BundleAdjustmentObservation& obs) {
+  std::ostringstream out;
+  out << "bundle adjustment: frame " << obs.frame_id << ", feature " << obs.observation.feature_id;
+  return out.str();
+}
+
+ceres::LinearSolverType ToCeres(BaLinearSolver solver) {
+  return solver == BaLinearSolver::kSparseSchur ? ceres::SPARSE_SCHUR
+                                                : ceres::SPARSE_NORMAL_CHOLESKY;
+}
+
+// Fills result->pose_covariances{,_euler} from ceres::Covariance. Ceres reports the
+// quaternion block's covariance in EigenQuaternionManifold's tangent, delta with
+// q_true = [cos|delta|, sin|delta| delta/|delta|] * q: a rotation of angle 2|delta| about the
+// world axis delta, so phi = 2 delta (tests check this against the manifold itself).
+void ComputePoseCovariances(ceres::Problem* ceres_problem, Parameters* params, int anchor_id,
+                            const std::set<int>& observed_frames,
+                            const BundleAdjustmentOptions& options,
+                            BundleAdjustmentResult* result) {
+  std::vector<std::pair<const double*, const double*>> blocks;
+  for (int frame_id : observed_frames) {
+    if (frame_id == anchor_id) continue;
+    const double* q = params->q_w_c(frame_id);
+    const double* t = params->t_w_c(frame_id);
+    blocks.emplace_back(t, t);
+    blocks.emplace_back(t, q);
+    blocks.emplace_back(q, q);
+  }
+  ceres::Covariance::Options covariance_options;
+  covariance_options.algorithm_type = ceres::SPARSE_QR;
+  covariance_options.sparse_linear_algebra_library_type = ceres::SUITE_SPARSE;
+  covariance_options.num_threads = options.num_threads;
+  ceres::Covariance covariance(covariance_options);
+  if (!covariance.Compute(blocks, ceres_problem)) {
+    result->covariance_error =
+        "ceres::Covariance failed: the Jacobian is rank deficient (a pose or feature that "
+        "the observations do not determine)";
+    return;
+  }
+  Matrix6d half_angle_to_phi = Matrix6d::Identity();
+  half_angle_to_phi.bottomRightCorner<3, 3>() *= 2.0;
+  for (int frame_id : observed_frames) {
+    if (frame_id == anchor_id) {
+      result->pose_covariances[frame_id].setZero();
+      result->pose_covariances_euler[frame_id].setZero();
+      continue;
+    }
+    Eigen::Matrix<double, 6, 6, Eigen::RowMajor> tangent;
+    const std::vector<const double*> pose_blocks = {params->t_w_c(frame_id),
+                                                    params->q_w_c(frame_id)};
+    CHECK(covariance.GetCovarianceMatrixInTangentSpace(pose_blocks, tangent.data()));
+    const Matrix6d P = half_angle_to_phi * Matrix6d(tangent) * half_angle_to_phi;
+    result->pose_covariances[frame_id] = P;
+    Matrix6d to_euler = Matrix6d::Identity();
+    to_euler.bottomRightCorner<3, 3>() =
+        EulerZyxFromRotationVectorJacobian(result->poses.at(frame_id).tail<3>());
+    result->pose_covariances_euler[frame_id] = to_euler * P * to_euler.transpose();
+  }
+}
+
+}  // namespace
+
+std::string BaRobustLossName(BaRobustLoss loss) {
+  return loss == BaRobustLoss::kHuber ? "huber" : "none";
+}
+
+std::string BaLinearSolverName(BaLinearSolver solver) {
+  return solver == BaLinearSolver::kSparseSchur ? "sparse_schur" : "sparse_normal_cholesky";
+}
+
+bool BundleAdjustmentOptions::Check(std::string* why) const {
+  auto fail = [why](const std::string& message) {
+    if (why != nullptr) *why = "bundle adjustment: " + message;
+    return false;
+  };
+  if (max_iterations < 1) return fail("max_iterations must be >= 1");
+  if (!(function_tolerance >= 0.0)) return fail("function_tolerance must be >= 0");
+  if (!(gradient_tolerance >= 0.0)) return fail("gradient_tolerance must be >= 0");
+  if (!(parameter_tolerance >= 0.0)) return fail("parameter_tolerance must be >= 0");
+  if (robust_loss == BaRobustLoss::kHuber && !(huber_scale > 0.0 && std::isfinite(huber_scale))) {
+    return fail("huber_scale must be > 0");
+  }
+  if (num_threads < 1) return fail("num_threads must be >= 1");
+  if (!(min_depth_m > 0.0)) return fail("min_depth_m must be > 0");
+  return true;
+}
+
+int BundleAdjustmentProblem::AnchorFrameId() const {
+  CHECK(!T_w_c.empty()) << "bundle adjustment problem without poses";
+  return anchor_frame_id >= 0 ? anchor_frame_id : T_w_c.begin()->first;
+}
+
+BundleAdjustmentProblem MakeProblemFromFilter(
+    const InformationFilter& filter,
+    const std::map<int, std::vector<FeatureObservation>>& observations_by_frame) {
+  BundleAdjustmentProblem problem;
+  for (int frame_id : filter.frame_ids()) {
+    problem.T_w_c[frame_id] = PoseToIsometry(filter.pose(frame_id));
+  }
+  for (int64_t feature_id : filter.feature_ids()) {
+    problem.p_w[feature_id] = filter.feature(feature_id);
+  }
+  if (!filter.frame_ids().empty()) problem.anchor_frame_id = filter.frame_ids().front();
+  for (const auto& [frame_id, observations] : observations_by_frame) {
+    if (!filter.HasPose(frame_id)) continue;
+    for (const FeatureObservation& obs : observations) {
+      if (!filter.HasFeature(obs.feature_id)) {
+        throw DataError(ObservationName({frame_id, obs}) +
+                        ": the filter does not hold the feature");
+      }
+      problem.observations.push_back({frame_id, obs});
+    }
+  }
+  return problem;
+}
+
+BundleAdjustmentResult SolveBundleAdjustment(const BundleAdjustmentProblem& problem,
+                                             const PinholeCamera& camera,
+                                             const BundleAdjustmentOptions& options) {
+  std::string why;
+  if (!options.Check(&why)) throw ConfigError(why);
+  CHECK(camera.fx > 0.0 && camera.fy > 0.0) << "bundle adjustment needs a calibrated camera";
+  const auto start = std::chrono::steady_clock::now();
+  BundleAdjustmentResult result;
+  if (problem.T_w_c.empty()) {
+    result.usable = true;
+    result.termination = "empty problem";
+    return result;
+  }
+  const int anchor_id = problem.AnchorFrameId();
+  if (problem.T_w_c.count(anchor_id) == 0) {
+    throw DataError("bundle adjustment: the anchor frame " + std::to_string(anchor_id) +
+                    " is not among the poses");
+  }
+
+  Parameters params(problem);
+  // One loss for every residual, owned here rather than by the problem.
+  std::unique_ptr<ceres::LossFunction> loss;
+  if (options.robust_loss == BaRobustLoss::kHuber) {
+    loss = std::make_unique<ceres::HuberLoss>(options.huber_scale);
+  }
+  ceres::Problem::Options problem_options;
+  problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  ceres::EigenQuaternionManifold quaternion_manifold;
+  ceres::Problem ceres_problem(problem_options);
+
+  std::set<int> observed_frames;
+  std::set<int64_t> observed_features;
+  for (const BundleAdjustmentObservation& obs : problem.observations) {
+    const FeatureObservation& o = obs.observation;
+    if (!params.HasPose(obs.frame_id)) throw DataError(ObservationName(obs) + ": unknown frame");
+    if (!params.HasFeature(o.feature_id)) {
+      throw DataError(ObservationName(obs) + ": unknown feature");
+    }
+    Eigen::Matrix3d W;
+    if (!o.z.allFinite() || !SqrtInformation(o.Q, &W)) {
+      throw DataError(ObservationName(obs) +
+                      ": z is not finite or Q is not symmetric positive definite");
+    }
+    const Eigen::Vector3d p_c =
+        problem.T_w_c.at(obs.frame_id).inverse() * problem.p_w.at(o.feature_id);
+    if (!(p_c.z() > options.min_depth_m)) {
+      throw DataError(ObservationName(obs) + ": the point is behind the camera (z = " +
+                      std::to_string(p_c.z()) + " m) at the initial estimate");
+    }
+    double* q = params.q_w_c(obs.frame_id);
+    ceres_problem.AddResidualBlock(UvdResidual::Create(camera, o.z, W, options.min_depth_m),
+                                   loss.get(), q, params.t_w_c(obs.frame_id),
+                                   params.p_w(o.feature_id));
+    if (observed_frames.insert(obs.frame_id).second) {
+      ceres_problem.SetManifold(q, &quaternion_manifold);
+    }
+    observed_features.insert(o.feature_id);
+  }
+  if (observed_frames.count(anchor_id) > 0) {
+    ceres_problem.SetParameterBlockConstant(params.q_w_c(anchor_id));
+    ceres_problem.SetParameterBlockConstant(params.t_w_c(anchor_id));
+  }
+
+  ceres::Solver::Options solver_options;
+  solver_options.minimizer_type = ceres::TRUST_REGION;
+  solver_options.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
+  solver_options.linear_solver_type = ToCeres(options.linear_solver);
+  solver_options.sparse_linear_algebra_library_type = ceres::SUITE_SPARSE;
+  solver_options.max_num_iterations = options.max_iterations;
+  solver_options.function_tolerance = options.function_tolerance;
+  solver_options.gradient_tolerance = options.gradient_tolerance;
+  solver_options.parameter_tolerance = options.parameter_tolerance;
+  solver_options.num_threads = options.num_threads;
+  solver_options.logging_type = ceres::SILENT;
+  solver_options.minimizer_progress_to_stdout = false;
+  if (options.linear_solver == BaLinearSolver::kSparseSchur && !observed_features.empty()) {
+    // Features first: eliminating them leaves the reduced camera system of the poses.
+    auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
+    for (int64_t feature_id : observed_features) {
+      ordering->AddElementToGroup(params.p_w(feature_id), 0);
+    }
+    for (int frame_id : observed_frames) {
+      ordering->AddElementToGroup(params.q_w_c(frame_id), 1);
+      ordering->AddElementToGroup(params.t_w_c(frame_id), 1);
+    }
+    solver_options.linear_solver_ordering = ordering;
+  }
+
+  ceres::Solver::Summary summary;
+  if (ceres_problem.NumResidualBlocks() > 0) ceres::Solve(solver_options, &ceres_problem, &summary);
+  result.initial_cost = summary.initial_cost;
+  result.final_cost = summary.final_cost;
+  result.iterations = static_cast<int>(summary.iterations.size());
+  result.num_residuals = ceres_problem.NumResiduals();
+  result.usable = ceres_problem.NumResidualBlocks() == 0 || summary.IsSolutionUsable();
+  result.termination = std::string(ceres::TerminationTypeToString(summary.termination_type)) +
+                       ": " + summary.message;
+
+  for (const auto& [frame_id, offset] : params.pose_offsets()) {
+    result.T_w_c[frame_id] = params.Pose(frame_id);
+    result.poses[frame_id] = IsometryToPose(result.T_w_c[frame_id]);
+  }
+  // The anchor comes back as given, not through a quaternion round trip.
+  result.T_w_c[anchor_id] = problem.T_w_c.at(anchor_id);
+  result.poses[anchor_id] = IsometryToPose(problem.T_w_c.at(anchor_id));
+  for (const auto& [feature_id, offset] : params.feature_offsets()) {
+    result.p_w[feature_id] = params.Feature(feature_id);
+  }
+  result.solve_time_s = SecondsSince(start);
+
+  if (options.compute_covariances && result.usable && !observed_frames.empty()) {
+    const auto covariance_start = std::chrono::steady_clock::now();
+    ComputePoseCovariances(&ceres_problem, &params, anchor_id, observed_frames, options, &result);
+    result.covariance_time_s = SecondsSince(covariance_start);
+  }
+  return result;
+}
+
+Eigen::Matrix3d EulerZyxFromRotationVectorJacobian(const Eigen::Vector3d& alpha_beta_gamma) {
+  const double a = alpha_beta_gamma[0];
+  const double b = alpha_beta_gamma[1];
+  if (std::abs(std::cos(b)) < kGimbalLockCosBeta) {
+    return Eigen::Matrix3d::Constant(std::numeric_limits<double>::quiet_NaN());
+  }
+  // omega = E (alpha', beta', gamma')^T for R = Rz(a) Ry(b) Rx(g): the rate of each angle
+  // turns about its own axis as seen in the world, ez, Rz ey and Rz Ry ex.
+  Eigen::Matrix3d E;
+  E.col(0) << 0.0, 0.0, 1.0;
+  E.col(1) << -std::sin(a), std::cos(a), 0.0;
+  E.col(2) << std::cos(a) * std::cos(b), std::sin(a) * std::cos(b), -std::sin(b);
+  return E.inverse();
+}
+
+}  // namespace ieslam

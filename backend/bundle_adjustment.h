@@ -1,0 +1,122 @@
+// A Ceres bundle adjustment over the selected poses and 3-D features (METHOD.md §6): the
+// smoothing reference that the filter is checked against, and a batch refinement.
+//
+// It minimises 1/2 sum_k |W_k (h(T_w_c, p_w) - z_k)|^2 with the filter's own (u, v, d) model
+// and the filter's own Q_k (W_k^T W_k = Q_k^-1; backend/ba_residuals.h), so that with the
+// same observations both estimators solve the same problem; the filter linearises each
+// observation once, the bundle adjustment iterates to the maximum a posteriori estimate.
+//
+// Rotations are unit quaternions on ceres::EigenQuaternionManifold. The gauge is fixed as the
+// filter fixes it: the anchor pose (the first pose) is held constant.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "core/camera.h"
+#include "core/observation.h"
+#include "core/pose.h"
+
+namespace ieslam {
+
+class InformationFilter;
+
+enum class BaRobustLoss { kNone, kHuber };
+enum class BaLinearSolver { kSparseSchur, kSparseNormalCholesky };
+
+std::string BaRobustLossName(BaRobustLoss loss);        // "none", "huber"
+std::string BaLinearSolverName(BaLinearSolver solver);  // "sparse_schur", ...
+
+struct BundleAdjustmentOptions {
+  int max_iterations = 100;
+  // Relative cost decrease below which Levenberg-Marquardt stops. Tighter than Ceres'
+  // default (1e-6) because the result is a reference for the filter, not a quick fix.
+  double function_tolerance = 1e-10;
+  double gradient_tolerance = 1e-12;
+  double parameter_tolerance = 1e-10;
+  // Huber on the whitened residual norm: quadratic up to `huber_scale` sigmas.
+  BaRobustLoss robust_loss = BaRobustLoss::kNone;
+  double huber_scale = 2.0;
+  // Features are eliminated first (the Schur complement leaves the small pose system);
+  // both factor with SuiteSparse/CHOLMOD.
+  BaLinearSolver linear_solver = BaLinearSolver::kSparseSchur;
+  // 1: the same input gives bit-identical output.
+  int num_threads = 1;
+  // Per-pose 6x6 marginal covariances (ceres::Covariance, sparse QR).
+  bool compute_covariances = false;
+  // An observation whose point is closer than this to the camera plane is invalid.
+  double min_depth_m = 1e-3;
+
+  bool Check(std::string* why) const;
+};
+
+// One observation: frame `frame_id` saw feature observation.feature_id as observation.z.
+struct BundleAdjustmentObservation {
+  int frame_id = -1;
+  FeatureObservation observation;
+};
+
+// The initial estimate and the observations. A plain value, filled by the caller (e.g. from
+// the filter's estimate and the observations that went into it, MakeProblemFromFilter).
+struct BundleAdjustmentProblem {
+  std::map<int, Eigen::Isometry3d> T_w_c;  // by frame id
+  std::map<int64_t, Eigen::Vector3d> p_w;  // by feature id
+  std::vector<BundleAdjustmentObservation> observations;
+  // The pose held fixed (the gauge); -1: the smallest frame id.
+  int anchor_frame_id = -1;
+
+  int AnchorFrameId() const;  // CHECK-fails on a problem without poses
+};
+
+// The filter's current estimate as the initial value, anchored at the filter's first pose,
+// with the observations of `observations_by_frame` made from frames the filter holds (others
+// are skipped: they were not selected). Throws DataError naming the frame and the feature
+// when an observation of a selected frame refers to a feature the filter does not hold.
+BundleAdjustmentProblem MakeProblemFromFilter(
+    const InformationFilter& filter,
+    const std::map<int, std::vector<FeatureObservation>>& observations_by_frame);
+
+struct BundleAdjustmentResult {
+  std::map<int, Eigen::Isometry3d> T_w_c;
+  std::map<int, Vector6d> poses;  // the paper's (x, y, z, alpha, beta, gamma), IsometryToPose
+  std::map<int64_t, Eigen::Vector3d> p_w;
+  // When options.compute_covariances: per pose, the covariance of (dt, phi) with
+  // t_true = t + dt and R_true = Exp(phi) R (phi a rotation vector in the world frame),
+  // translation first. The anchor's is zero.
+  std::map<int, Matrix6d> pose_covariances;
+  // The same, carried to the paper's Euler 6-vector (as the filter's PoseCovariance) by the
+  // Jacobian of (alpha, beta, gamma) with respect to phi; NaN at gimbal lock.
+  std::map<int, Matrix6d> pose_covariances_euler;
+  // Empty when the covariances were computed or not asked for; else why they are missing
+  // (e.g. a rank-deficient Jacobian: a pose or feature the observations do not determine).
+  std::string covariance_error;
+
+  double initial_cost = 0.0;  // Ceres' 1/2 sum |r|^2 (after the robust loss)
+  double final_cost = 0.0;
+  int iterations = 0;
+  int num_residuals = 0;    // scalar residuals, 3 per observation
+  bool usable = false;      // Ceres: CONVERGENCE or NO_CONVERGENCE with a finite cost
+  std::string termination;  // Ceres' termination type and message
+  double solve_time_s = 0.0;
+  double covariance_time_s = 0.0;
+};
+
+// Refines the problem's poses and features. Throws ConfigError when the options fail Check
+// and DataError (naming the frame and the feature) when an observation refers to an unknown
+// frame or feature, has a Q that is not positive definite, or its point lies behind the
+// camera at the initial estimate. Poses and features without observations come back
+// unchanged.
+BundleAdjustmentResult SolveBundleAdjustment(const BundleAdjustmentProblem& problem,
+                                             const PinholeCamera& camera,
+                                             const BundleAdjustmentOptions& options);
+
+// d(alpha, beta, gamma) / d(phi) for R_true = Exp(phi) R(alpha, beta, gamma): the inverse
+// of the map from Euler rates to the world-frame angular velocity. Singular at gimbal lock.
+Eigen::Matrix3d EulerZyxFromRotationVectorJacobian(const Eigen::Vector3d& alpha_beta_gamma);
+
+}  // namespace ieslam

@@ -1,0 +1,76 @@
+// Filter versus smoothing (METHOD.md §6): how far the information filter's estimate of the
+// selected poses and features lies from the bundle adjustment's, and whether that distance
+// is within what the filter's own covariance claims.
+//
+// The filter linearises each observation once, at the estimate of its time; the bundle
+// adjustment relinearises everything to convergence. Differences far beyond the filter's
+// sigmas (large Mahalanobis distances) point at linearisation error or an overconfident
+// filter rather than at noise.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "core/json.h"
+#include "core/pose.h"
+
+namespace ieslam {
+
+class InformationFilter;
+struct BundleAdjustmentResult;
+
+// What one estimator says about the poses (paper 6-vector, camera-to-world) and features.
+struct SlamEstimate {
+  std::map<int, Vector6d> poses;
+  // Over the Euler 6-vector, as InformationFilter::PoseCovariance; may be empty.
+  std::map<int, Matrix6d> pose_covariances;
+  std::map<int64_t, Eigen::Vector3d> features;
+};
+
+// The filter's estimate; its pose covariances when `with_covariances` (one marginal
+// recovery per pose).
+SlamEstimate FilterEstimate(const InformationFilter& filter, bool with_covariances = true);
+// The bundle adjustment's estimate, with its Euler-tangent covariances when it computed them.
+SlamEstimate SmootherEstimate(const BundleAdjustmentResult& result);
+
+struct FramePoseComparison {
+  int frame_id = -1;
+  Vector6d difference = Vector6d::Zero();  // PoseDifference(filter, smoother)
+  double translation_m = 0.0;              // |t_filter - t_smoother|
+  double rotation_deg = 0.0;               // angle of R_filter^T R_smoother
+  // sqrt(d^T P^-1 d), d = difference, P the filter's pose covariance; NaN without one (or
+  // when P is not positive definite).
+  double mahalanobis = 0.0;
+};
+
+struct SummaryStats {
+  int count = 0;
+  double rmse = 0.0;
+  double mean = 0.0;
+  double max = 0.0;
+};
+// Of the finite values (NaN skipped); zeros when none.
+SummaryStats Summarize(const std::vector<double>& values);
+
+struct FilterSmootherComparison {
+  std::vector<FramePoseComparison> frames;  // frames both estimates hold, by id
+  SummaryStats translation_m;
+  SummaryStats rotation_deg;
+  SummaryStats mahalanobis;
+  // Mean of d^T P^-1 d over the frames: ~6 when the filter's covariance is right and the
+  // smoother is much closer to the truth than the filter.
+  double mean_squared_mahalanobis = 0.0;
+  SummaryStats feature_m;  // |p_filter - p_smoother| over the common features
+  int frames_only_in_filter = 0;
+  int frames_only_in_smoother = 0;
+};
+
+FilterSmootherComparison CompareFilterToSmoother(const SlamEstimate& filter,
+                                                 const SlamEstimate& smoother);
+
+Json ComparisonToJson(const FilterSmootherComparison& comparison, bool per_frame = true);
+
+}  // namespace ieslam
