@@ -120,6 +120,26 @@ def plot_simulate(out, report):
     fig.suptitle("Paper's Table I: all-frames EIF vs information-efficient selection")
     save(fig, out, "table.png")
 
+    # Per-axis pose errors with +-2 sigma bounds (paper Figs. 3-4), first run of each row.
+    axes_names = ["x (m)", "y (m)", "z (m)", "alpha (rad)", "beta (rad)", "gamma (rad)"]
+    for row in report.get("first_run_pose_errors", []):
+        poses = row["poses"]
+        frames = np.array([p["frame"] for p in poses])
+        err = np.array([p["error"] for p in poses])
+        sig = np.array([p["sigma"] for p in poses])
+        fig, axes = plt.subplots(6, 1, figsize=(9, 10), sharex=True)
+        for k, ax in enumerate(axes):
+            ax.plot(frames, err[:, k], lw=0.8, label="error")
+            ax.plot(frames, 2 * sig[:, k], "r--", lw=0.6, label="±2σ")
+            ax.plot(frames, -2 * sig[:, k], "r--", lw=0.6)
+            ax.set_ylabel(axes_names[k], fontsize=8)
+        axes[0].legend(loc="upper right", fontsize=8)
+        axes[-1].set_xlabel("frame")
+        name = row["selector"] if row["selector"] == "all" else "info_b%d" % row["buffer"]
+        inside = np.mean(np.abs(err) <= 2 * sig) * 100
+        fig.suptitle("Pose errors with ±2σ bounds, %s: %.1f%% inside" % (name, inside))
+        save(fig, out, "pose_errors_%s.png" % name)
+
 
 def main():
     if len(sys.argv) != 2:
