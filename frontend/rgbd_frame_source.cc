@@ -62,12 +62,15 @@ const ProcessedFrame& RgbdFrameSource::Processed(int frame) {
 }
 
 FrameRegistration RgbdFrameSource::Register(int base, int frame) {
+  const auto cached = registrations_.find({base, frame});
+  if (cached != registrations_.end()) return cached->second;
   const ProcessedFrame& a = Processed(base);
   const ProcessedFrame& b = Processed(frame);
   FrameRegistration registration = RegisterFrames(a, b, options_.frontend.matching,
                                                   options_.frontend.registration);
   timings_.match_s += registration.seconds_match;
   timings_.ransac_s += registration.seconds_ransac;
+  registrations_.emplace(std::make_pair(base, frame), registration);
   return registration;
 }
 
@@ -176,6 +179,10 @@ void RgbdFrameSource::Commit(const CandidateFrame& candidate) {
   pending_.erase(it);
   database_.Add(candidate.frame, Processed(candidate.frame).features.descriptors);
   last_base_ = candidate.frame;
+  // Frames up to this one are prepared again only for recovery, which may redo the work.
+  for (auto it = registrations_.begin(); it != registrations_.end();) {
+    it = it->first.second <= candidate.frame ? registrations_.erase(it) : std::next(it);
+  }
 }
 
 }  // namespace ieslam

@@ -73,6 +73,10 @@ class RgbdFrameSource : public FrameSource {
   FrameProcessor processor_;
   BaseFrameDatabase database_;
   std::map<int, ProcessedFrame> processed_;
+  // A frame is prepared again in each buffer that holds it: its registrations to base
+  // frames do not change, so they are computed once. Entries of frames that became base
+  // frames or fell behind are dropped (see Commit).
+  std::map<std::pair<int, int>, FrameRegistration> registrations_;  // (base, frame)
   std::map<int, std::vector<int64_t>> feature_ids_;  // per base frame: id per keypoint row
   std::map<int, std::vector<int64_t>> pending_;      // per prepared frame: tentative ids
   int64_t next_feature_id_ = 0;
