@@ -36,6 +36,8 @@ bool InformationFilterOptions::Check(std::string* why) const {
     reason << "min_known_features must be >= 3 (a pose has 6 DOF), got " << min_known_features;
   } else if (!(min_depth_m > 0.0)) {
     reason << "min_depth_m must be positive, got " << min_depth_m;
+  } else if (!(spare_capacity >= 0.0) || !std::isfinite(spare_capacity)) {
+    reason << "spare_capacity must be >= 0 and finite, got " << spare_capacity;
   }
   if (why != nullptr) *why = reason.str();
   return reason.str().empty();
@@ -86,9 +88,10 @@ InformationFilter::InformationFilter(const InformationFilterOptions& options,
                                      const PinholeCamera& camera)
     : options_(options),
       camera_(camera),
-      cholesky_(std::make_unique<SparseCholesky>(options.ordering)) {
+      cholesky_() {
   std::string why;
   if (!options_.Check(&why)) throw ConfigError("InformationFilterOptions: " + why);
+  cholesky_ = std::make_unique<SparseCholesky>(options_.ordering, options_.spare_capacity);
 }
 
 InformationFilter::~InformationFilter() = default;
@@ -105,7 +108,8 @@ InformationFilter::Linearization InformationFilter::Linearize(
     block.feature_id = obs.feature_id;
     block.is_new = !HasFeature(obs.feature_id);
     if (block.is_new && static_cast<int>(new_blocks.size()) >= max_new_features) continue;
-    block.p_w = block.is_new ? ObservationToWorld(T_w_c, obs.z, camera_) : feature(obs.feature_id);
+    block.p_w = block.is_new ? ObservationToWorld(T_w_c, obs.z, camera_)
+                             : FeatureEstimate(obs.feature_id);
     const double depth = WorldToCamera(T_w_c, block.p_w).z();
     if (!(depth > options_.min_depth_m)) {
       std::ostringstream msg;
@@ -223,36 +227,90 @@ void InformationFilter::Update(int frame_id, const Vector6d& T_w_c,
   info_vector_.tail<6>() = lin.i_p + prior * T_w_c;
   timings_.linearize_s = SecondsSince(start);
 
-  if (!cholesky_->Factorize(matrix_, /*pattern_changed=*/true)) {
+  std::vector<DiagonalIncrement> increments;
+  for (int b = 0; b < lin.num_known; ++b) {
+    increments.push_back({feature_offset_.at(lin.blocks[b].feature_id), lin.blocks[b].I_ff});
+  }
+  if (defer_recovery_) {
+    // The state grows by the new variables at their initial values; no factorisation
+    // (the factor only notes which variables the update touched, for its next ordering).
+    cholesky_->NoteUpdate(old_dim, increments);
+    state_.conservativeResize(new_dim);
+    for (int b = lin.num_known; b < static_cast<int>(lin.blocks.size()); ++b) {
+      state_.segment<3>(old_dim + 3 * (b - lin.num_known)) = lin.blocks[b].p_w;
+    }
+    state_.tail<6>() = T_w_c;
+    Register(lin, frame_id, old_dim, new_dim);
+    recovery_pending_ = true;
+    timings_.analyze_s = timings_.factorize_s = timings_.solve_s = 0.0;
+    timings_.total_s = SecondsSince(start);
+    return;
+  }
+  // In place when the factor has room (the re-observed features' blocks are a low-rank
+  // update, the new variables new rows), else a fresh ordering and factorisation.
+  if (!cholesky_->Update(matrix_, old_dim, increments) &&
+      !cholesky_->Factorize(matrix_, /*pattern_changed=*/true)) {
     matrix_.Truncate(old_dim);
     for (const auto& [offset, block] : saved_blocks) matrix_.SetDiagonalBlock(offset, block);
     info_vector_ = saved_info_vector;
-    if (old_dim > 0) CHECK(cholesky_->Factorize(matrix_, true)) << "the old matrix refactors";
+    // A failed in-place update leaves no factor; Factorize keeps the old one otherwise.
+    // (With deferred frames pending there was no factor of the old matrix to restore.)
+    if (!cholesky_->valid() && old_dim > 0 && !recovery_pending_) {
+      CHECK(cholesky_->Factorize(matrix_, true)) << "the old matrix refactors";
+    }
     throw DataError("adding " + FrameName(frame_id) +
                     " makes the information matrix not positive definite (degenerate "
                     "observations?)");
   }
   timings_.analyze_s = cholesky_->timings().analyze_s;
   timings_.factorize_s = cholesky_->timings().factorize_s;
+  Register(lin, frame_id, old_dim, new_dim);
 
+  const auto solve_start = std::chrono::steady_clock::now();
+  state_ = cholesky_->Solve(info_vector_);  // eq. 10: I X = i
+  recovery_pending_ = false;  // the deferred frames were factored in too
+  timings_.solve_s = SecondsSince(solve_start);
+  timings_.total_s = SecondsSince(start);
+}
+
+void InformationFilter::Register(const Linearization& lin, int frame_id, int old_dim,
+                                 int new_dim) {
   for (int b = lin.num_known; b < static_cast<int>(lin.blocks.size()); ++b) {
     feature_offset_[lin.blocks[b].feature_id] = old_dim + 3 * (b - lin.num_known);
     feature_ids_.push_back(lin.blocks[b].feature_id);
   }
   pose_offset_[frame_id] = new_dim - 6;
   frame_ids_.push_back(frame_id);
+}
 
+void InformationFilter::Recover() {
+  if (!recovery_pending_) return;
+  const auto start = std::chrono::steady_clock::now();
+  if (!cholesky_->Factorize(matrix_, /*pattern_changed=*/true)) {
+    throw DataError("the deferred frames (last: " + FrameName(frame_ids_.back()) +
+                    ") make the information matrix not positive definite");
+  }
+  timings_.analyze_s = cholesky_->timings().analyze_s;
+  timings_.factorize_s = cholesky_->timings().factorize_s;
   const auto solve_start = std::chrono::steady_clock::now();
-  state_ = cholesky_->Solve(info_vector_);  // eq. 10: I X = i
+  state_ = cholesky_->Solve(info_vector_);
+  recovery_pending_ = false;
+  timings_.linearize_s = 0.0;
   timings_.solve_s = SecondsSince(solve_start);
   timings_.total_s = SecondsSince(start);
 }
 
+void InformationFilter::CheckRecovered() const {
+  CHECK(!recovery_pending_) << "deferred updates are pending: call Recover() first";
+}
+
 Vector6d InformationFilter::pose(int frame_id) const {
+  CheckRecovered();
   return state_.segment<6>(StateIndex(VariableRef::Pose(frame_id)));
 }
 
 Eigen::Vector3d InformationFilter::feature(int64_t feature_id) const {
+  CheckRecovered();
   return state_.segment<3>(StateIndex(VariableRef::Feature(feature_id)));
 }
 
@@ -273,7 +331,10 @@ Eigen::Map<const Eigen::SparseMatrix<double>> InformationFilter::information_upp
 
 Eigen::SparseMatrix<double> InformationFilter::Information() const { return matrix_.Full(); }
 
-double InformationFilter::LogDetInformation() const { return cholesky_->LogDet(); }
+double InformationFilter::LogDetInformation() const {
+  CheckRecovered();
+  return cholesky_->LogDet();
+}
 
 std::vector<int> InformationFilter::ScalarIndices(const std::vector<VariableRef>& variables) const {
   std::vector<int> indices;
@@ -287,6 +348,7 @@ std::vector<int> InformationFilter::ScalarIndices(const std::vector<VariableRef>
 
 Eigen::MatrixXd InformationFilter::MarginalCovariance(
     const std::vector<VariableRef>& variables) const {
+  CheckRecovered();
   return cholesky_->InverseSubmatrix(ScalarIndices(variables));
 }
 

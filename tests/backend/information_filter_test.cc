@@ -3,9 +3,11 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <random>
 #include <string>
 
+#include <Eigen/Cholesky>
 #include <gtest/gtest.h>
 
 #include "backend/dense_reference_filter.h"
@@ -342,6 +344,189 @@ TEST(InformationFilterTest, GainIsMinusInfinityWhenThePoseIsUndetermined) {
   const FeatureCovariance known = filter.JointFeatureCovariance({one_known[0].feature_id});
   EXPECT_EQ(filter.InformationGain(scene.poses[1], one_known, 0, known),
             -std::numeric_limits<double>::infinity());
+}
+
+TEST(InformationFilterTest, OptionsCheckRejectsANegativeSpareCapacity) {
+  InformationFilterOptions options;
+  options.spare_capacity = -0.1;
+  std::string why;
+  EXPECT_FALSE(options.Check(&why));
+  EXPECT_NE(why.find("spare_capacity"), std::string::npos) << why;
+}
+
+// In-place updates of the factor and the ordering are a matter of speed only: a full
+// factorisation at every update, updates in place (new variables in spare slots), and
+// every ordering method give the same filter, and that filter is the dense one.
+TEST(InformationFilterTest, InPlaceUpdatesAndOrderingDoNotChangeTheResult) {
+  std::mt19937 rng(14);
+  const int num_poses = 9;
+  const Scene scene = MakeScene(num_poses, 70, &rng);
+  struct Variant {
+    FillReducingOrdering ordering;
+    double spare_capacity;
+  };
+  const std::vector<Variant> variants = {{FillReducingOrdering::kMetis, 0.0},
+                                         {FillReducingOrdering::kMetis, 100.0},
+                                         {FillReducingOrdering::kAmd, 100.0},
+                                         {FillReducingOrdering::kNatural, 0.0},
+                                         {FillReducingOrdering::kNatural, 1.0},
+                                         {FillReducingOrdering::kCholmodChoice, 0.5}};
+  std::vector<std::unique_ptr<InformationFilter>> filters;
+  for (const Variant& variant : variants) {
+    InformationFilterOptions options;
+    options.ordering = variant.ordering;
+    options.spare_capacity = variant.spare_capacity;
+    filters.push_back(std::make_unique<InformationFilter>(options, scene.camera));
+  }
+  testing::DenseReferenceFilter dense(DefaultOptions().anchor_information, scene.camera);
+  const std::vector<FeatureObservation> first = Observe(scene, 0, true, &rng);
+  for (auto& filter : filters) filter->AddFirstPose(scene.frame_ids[0], scene.poses[0], first);
+  dense.AddFirstPose(scene.frame_ids[0], scene.poses[0], first);
+  for (int i = 1; i < num_poses; ++i) {
+    const std::vector<FeatureObservation> observations = Observe(scene, i, true, &rng);
+    const Vector6d initial = Perturb(scene.poses[i], 0.02, 0.01, &rng);
+    for (auto& filter : filters) filter->AddPose(scene.frame_ids[i], initial, observations);
+    dense.AddPose(scene.frame_ids[i], initial, observations);
+    for (const auto& filter : filters) {
+      ASSERT_EQ(filter->state_dim(), dense.state_dim());
+      const int last = scene.frame_ids[i];
+      EXPECT_LT((filter->pose(last) - dense.pose(last)).norm(), 1e-9) << "pose " << i;
+      EXPECT_NEAR(filter->LogDetInformation(), dense.LogDetInformation(),
+                  1e-9 * std::abs(dense.LogDetInformation()));
+    }
+  }
+  for (const auto& filter : filters) {
+    for (int64_t id : filter->feature_ids()) {
+      EXPECT_LT((filter->feature(id) - dense.feature(id)).norm(), 1e-9) << "feature " << id;
+    }
+  }
+}
+
+TEST(InformationFilterTest, SameInputsGiveABitIdenticalState) {
+  std::mt19937 rng_a(15), rng_b(15);
+  const Scene scene = MakeScene(7, 60, &rng_a);
+  MakeScene(7, 60, &rng_b);
+  InformationFilter a(DefaultOptions(), scene.camera), b(DefaultOptions(), scene.camera);
+  testing::DenseReferenceFilter dense_a(1.0, scene.camera), dense_b(1.0, scene.camera);
+  RunBoth(scene, 7, &rng_a, &a, &dense_a);
+  RunBoth(scene, 7, &rng_b, &b, &dense_b);
+  EXPECT_EQ(a.state(), b.state());
+  EXPECT_EQ(a.LogDetInformation(), b.LogDetInformation());
+}
+
+// The joint covariance of every feature at once (the forward-solve formula, with the rows
+// outside the elimination paths dropped) against the dense inverse.
+TEST(InformationFilterTest, JointCovarianceOfAllFeaturesMatchesTheDenseInverse) {
+  std::mt19937 rng(16);
+  const Scene scene = MakeScene(7, 60, &rng);
+  InformationFilter sparse(DefaultOptions(), scene.camera);
+  testing::DenseReferenceFilter dense(DefaultOptions().anchor_information, scene.camera);
+  RunBoth(scene, 7, &rng, &sparse, &dense);
+  // Reversed, with an unknown id and a repeat, which are skipped.
+  std::vector<int64_t> ids(sparse.feature_ids().rbegin(), sparse.feature_ids().rend());
+  ids.push_back(-5);
+  ids.push_back(ids.front());
+  const FeatureCovariance joint = sparse.JointFeatureCovariance(ids);
+  ASSERT_EQ(joint.feature_ids.size(), sparse.feature_ids().size());
+  std::vector<int> indices;
+  for (int64_t id : joint.feature_ids) {
+    for (int k = 0; k < 3; ++k) indices.push_back(dense.FeatureIndex(id) + k);
+  }
+  EXPECT_LT(RelativeDifference(joint.covariance, dense.CovarianceOf(indices)), 1e-9);
+  EXPECT_EQ(joint.covariance, joint.covariance.transpose());
+}
+
+// Deferred recovery (batch loading) with exact linearisation points gives the step-by-step
+// filter: noise-free observations at the true poses linearise both at the truth.
+TEST(InformationFilterTest, DeferredRecoveryMatchesStepByStepAtExactLinearisationPoints) {
+  std::mt19937 rng(17);
+  const Scene scene = MakeScene(6, 60, &rng);
+  InformationFilter step(DefaultOptions(), scene.camera), batch(DefaultOptions(), scene.camera);
+  batch.set_defer_recovery(true);
+  for (int i = 0; i < 6; ++i) {
+    const std::vector<FeatureObservation> observations = Observe(scene, i, false, &rng);
+    if (i == 0) {
+      step.AddFirstPose(scene.frame_ids[0], scene.poses[0], observations);
+      batch.AddFirstPose(scene.frame_ids[0], scene.poses[0], observations);
+    } else {
+      step.AddPose(scene.frame_ids[i], scene.poses[i], observations);
+      batch.AddPose(scene.frame_ids[i], scene.poses[i], observations);
+    }
+  }
+  EXPECT_TRUE(batch.recovery_pending());
+  batch.Recover();
+  EXPECT_FALSE(batch.recovery_pending());
+  ASSERT_EQ(batch.state_dim(), step.state_dim());
+  EXPECT_LT((batch.state() - step.state()).norm(), 1e-9);
+  EXPECT_NEAR(batch.LogDetInformation(), step.LogDetInformation(),
+              1e-9 * std::abs(step.LogDetInformation()));
+  // Back to step-by-step updates afterwards.
+  batch.set_defer_recovery(false);
+  const std::vector<FeatureObservation> more = Observe(scene, 5, false, &rng);
+  EXPECT_THROW(batch.AddPose(scene.frame_ids[5], scene.poses[5], more), DataError);
+}
+
+// SparseCholesky on its own: in-place updates (diagonal increments, new rows) agree with a
+// full factorisation, a non-positive-definite update is refused with the factor dropped,
+// and a full factorisation then recovers.
+TEST(SparseCholeskyTest, InPlaceUpdatesAgreeWithFullFactorisation) {
+  std::mt19937 rng(18);
+  std::uniform_real_distribution<double> uniform(-1.0, 1.0);
+  // Dense SPD blocks of 3, each coupled to the previous one: appended column by column.
+  auto append_block = [&](UpperColumnStorage* matrix, Eigen::MatrixXd* dense) {
+    const int first = matrix->dim();
+    dense->conservativeResize(first + 3, first + 3);
+    dense->rightCols(3).setZero();
+    dense->bottomRows(3).setZero();
+    for (int k = 0; k < 3; ++k) {
+      matrix->StartColumn();
+      for (int r = std::max(0, first - 3); r <= first + k; ++r) {
+        const double value = r == first + k ? 8.0 : 0.5 * uniform(rng);
+        matrix->Append(r, value);
+        (*dense)(r, first + k) = (*dense)(first + k, r) = value;
+      }
+    }
+  };
+  UpperColumnStorage matrix;
+  Eigen::MatrixXd dense(0, 0);
+  for (int b = 0; b < 4; ++b) append_block(&matrix, &dense);
+  SparseCholesky incremental(FillReducingOrdering::kMetis, 1.0);
+  ASSERT_TRUE(incremental.Factorize(matrix, true));
+  for (int step = 0; step < 3; ++step) {
+    const int old_dim = matrix.dim();
+    Eigen::Matrix3d root;
+    for (int k = 0; k < 9; ++k) root(k % 3, k / 3) = uniform(rng);
+    const Eigen::Matrix3d increment = root * root.transpose();
+    const int first = 3 * step;
+    matrix.AddToDiagonalBlock(first, increment);
+    dense.block<3, 3>(first, first) += increment;
+    append_block(&matrix, &dense);
+    ASSERT_TRUE(incremental.Update(matrix, old_dim, {{first, increment}})) << "step " << step;
+  }
+  SparseCholesky full(FillReducingOrdering::kAmd);
+  ASSERT_TRUE(full.Factorize(matrix, true));
+  const Eigen::LLT<Eigen::MatrixXd> llt(dense);
+  const double log_det = 2.0 * llt.matrixLLT().diagonal().array().log().sum();
+  EXPECT_NEAR(incremental.LogDet(), log_det, 1e-12 * std::abs(log_det));
+  EXPECT_NEAR(full.LogDet(), log_det, 1e-12 * std::abs(log_det));
+  const Eigen::VectorXd rhs = Eigen::VectorXd::LinSpaced(dense.rows(), -1.0, 2.0);
+  EXPECT_LT((incremental.Solve(rhs) - llt.solve(rhs)).norm(), 1e-12);
+  const std::vector<int> indices = {7, 0, 13, 2};
+  const Eigen::MatrixXd inverse = llt.solve(Eigen::MatrixXd::Identity(dense.rows(), dense.rows()));
+  EXPECT_LT((incremental.InverseSubmatrix(indices) - inverse(indices, indices)).norm(), 1e-12);
+  EXPECT_LT((full.InverseSubmatrix(indices) - inverse(indices, indices)).norm(), 1e-12);
+
+  // A new variable coupled too strongly: not positive definite.
+  const int old_dim = matrix.dim();
+  matrix.StartColumn();
+  matrix.Append(0, 20.0);
+  matrix.Append(old_dim, 1.0);
+  EXPECT_FALSE(incremental.Update(matrix, old_dim, {}));
+  EXPECT_FALSE(incremental.valid());
+  EXPECT_FALSE(incremental.Factorize(matrix, true));
+  matrix.Truncate(old_dim);
+  ASSERT_TRUE(incremental.Factorize(matrix, true));
+  EXPECT_NEAR(incremental.LogDet(), log_det, 1e-12 * std::abs(log_det));
 }
 
 }  // namespace
