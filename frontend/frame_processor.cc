@@ -1,6 +1,8 @@
 #include "frontend/frame_processor.h"
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 
 #include <glog/logging.h>
 
@@ -62,13 +64,21 @@ FrameRegistration RegisterFrames(const ProcessedFrame& a, const ProcessedFrame& 
 
   start = std::chrono::steady_clock::now();
   std::vector<Eigen::Vector3d> points_a, points_b;
+  std::vector<double> sigmas;
   points_a.reserve(out.matches.size());
   points_b.reserve(out.matches.size());
   for (const DescriptorMatch& m : out.matches) {
     points_a.push_back(a.points[m.train].p_c);
     points_b.push_back(b.points[m.query].p_c);
+    sigmas.push_back(std::sqrt(a.points[m.train].Q(2, 2) + b.points[m.query].Q(2, 2)));
   }
-  out.result = RegisterPointSets(points_a, points_b, registration);
+  RegistrationOptions options = registration;
+  if (!sigmas.empty()) {
+    std::nth_element(sigmas.begin(), sigmas.begin() + sigmas.size() / 2, sigmas.end());
+    options.inlier_threshold_m = std::max(options.inlier_threshold_m,
+                                          options.inlier_noise_sigmas * sigmas[sigmas.size() / 2]);
+  }
+  out.result = RegisterPointSets(points_a, points_b, options);
   out.seconds_ransac = SecondsSince(start);
   return out;
 }

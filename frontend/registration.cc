@@ -61,6 +61,7 @@ bool RegistrationOptions::Check(std::string* why) const {
     return false;
   };
   if (!(inlier_threshold_m > 0.0)) return fail("registration.inlier_threshold_m must be > 0");
+  if (!(inlier_noise_sigmas >= 0.0)) return fail("registration.inlier_noise_sigmas must be >= 0");
   if (max_iterations < 1) return fail("registration.max_iterations must be >= 1");
   if (!(probability > 0.0 && probability < 1.0)) return fail("registration.probability must be in (0, 1)");
   if (min_inliers < 3) return fail("registration.min_inliers must be >= 3");

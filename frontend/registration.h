@@ -17,6 +17,10 @@ struct RegistrationOptions {
   // sigma ~ 1 cm at 2.5 m, so two points differ by ~1.4 sigma_d: 3 cm keeps ~3 sigma up to
   // about 2.5 m and stays well below the spacing of distinct features.
   double inlier_threshold_m = 0.03;
+  // RegisterFrames raises the threshold to this many sigmas of the difference of two matched
+  // points' range noise (median over the matches): a time-of-flight imager at 2 m has
+  // sigma_d ~ 2.5 cm, where 3 cm would reject most true matches.
+  double inlier_noise_sigmas = 3.0;
   int max_iterations = 500;
   double probability = 0.999;
   int min_inliers = 10;
