@@ -1,7 +1,3 @@
-// FLANN's headers must come before any OpenCV flann header in a file (their macros clash);
-// this file includes no OpenCV flann header at all.
-#include <flann/flann.hpp>
-
 #include "frontend/matcher.h"
 
 #include <algorithm>
@@ -9,6 +5,7 @@
 
 #include <Eigen/Core>
 #include <glog/logging.h>
+#include <opencv2/flann.hpp>
 
 namespace ieslam {
 namespace {
@@ -81,8 +78,16 @@ std::vector<DescriptorMatch> MatchDescriptors(const cv::Mat& query, const cv::Ma
   return matches;
 }
 
+// The FLANN copy inside OpenCV: Debian's libflann shuffles its randomised trees with
+// std::random_device, so no seed makes its index (and the ranking) repeatable; OpenCV's copy
+// draws from std::rand, which cvflann::seed_random seeds. OpenCV's index cannot grow, so the
+// rows added since the last build (the tail) are searched exactly, and the index is rebuilt
+// once the tail passes a quarter of the indexed rows: geometric growth keeps the total build
+// cost within a few builds of the final size.
 struct BaseFrameDatabase::Index {
-  std::unique_ptr<flann::Index<flann::L2<float>>> flann;
+  cv::Mat rows;      // every base frame's descriptors, in the order added
+  int indexed = 0;   // rows [0, indexed) are in `flann`
+  std::unique_ptr<cv::flann::Index> flann;
 };
 
 BaseFrameDatabase::BaseFrameDatabase(const DatabaseOptions& options)
@@ -102,34 +107,64 @@ void BaseFrameDatabase::Add(int frame_id, const cv::Mat& descriptors) {
   CHECK_EQ(descriptors.type(), CV_32F);
   frame_ids_.push_back(frame_id);
   if (descriptors.rows == 0) return;
-  descriptors_.push_back(descriptors.clone());
-  cv::Mat& rows = descriptors_.back();
-  row_frame_.insert(row_frame_.end(), rows.rows, num_frames() - 1);
-  flann::Matrix<float> data(rows.ptr<float>(), rows.rows, rows.cols);
-  // FLANN randomises its trees with std::rand; seeding it before every (re)build keeps the
-  // index, and so the ranking, the same from run to run.
-  flann::seed_random(options_.seed);
-  if (!index_->flann) {
-    index_->flann.reset(
-        new flann::Index<flann::L2<float>>(data, flann::KDTreeIndexParams(options_.trees)));
-    index_->flann->buildIndex();
+  row_frame_.insert(row_frame_.end(), descriptors.rows, num_frames() - 1);
+  if (index_->rows.empty()) {
+    index_->rows = descriptors.clone();
   } else {
-    index_->flann->addPoints(data, 2.0f);
+    cv::vconcat(index_->rows, descriptors, index_->rows);
   }
+  const int tail = index_->rows.rows - index_->indexed;
+  if (tail <= std::max(kMinTailRows, index_->indexed / 4)) return;
+  cvflann::seed_random(options_.seed);
+  index_->flann.reset(new cv::flann::Index(index_->rows, cv::flann::KDTreeIndexParams(options_.trees),
+                                           cvflann::FLANN_DIST_L2));
+  index_->indexed = index_->rows.rows;
 }
 
 std::vector<std::pair<int, int>> BaseFrameDatabase::RankFrames(const cv::Mat& query,
                                                                int max_frames) const {
   std::vector<std::pair<int, int>> ranked;
-  if (!index_->flann || query.rows == 0) return ranked;
-  const int k = std::min<int>(options_.neighbours, static_cast<int>(row_frame_.size()));
-  cv::Mat q = query.isContinuous() ? query : query.clone();
-  flann::Matrix<float> queries(q.ptr<float>(), q.rows, q.cols);
-  std::vector<std::vector<size_t>> indices;
-  std::vector<std::vector<float>> dists;  // squared distances
-  flann::SearchParams params(options_.checks);
-  params.cores = 1;
-  index_->flann->knnSearch(queries, indices, dists, k, params);
+  if (index_->rows.empty() || query.rows == 0) return ranked;
+  const int k = std::min<int>(options_.neighbours, index_->rows.rows);
+  // Per query row, (squared distance, database row) of the candidates: the index's k
+  // nearest among the indexed rows and every row of the tail, then the k nearest of those.
+  std::vector<std::vector<std::pair<float, int>>> nearest(query.rows);
+  if (index_->flann) {
+    cv::Mat indices, dists;
+    index_->flann->knnSearch(query, indices, dists, std::min(k, index_->indexed),
+                             cv::flann::SearchParams(options_.checks));
+    for (int i = 0; i < query.rows; ++i) {
+      for (int n = 0; n < indices.cols; ++n) {
+        if (indices.at<int>(i, n) >= 0) {
+          nearest[i].emplace_back(dists.at<float>(i, n), indices.at<int>(i, n));
+        }
+      }
+    }
+  }
+  const int tail = index_->rows.rows - index_->indexed;
+  if (tail > 0) {
+    const cv::Mat tail_rows = index_->rows.rowRange(index_->indexed, index_->rows.rows);
+    const cv::Mat q = query.isContinuous() ? query : query.clone();
+    const auto qe = AsEigen(q);
+    const auto te = AsEigen(tail_rows);
+    RowMatrixXf d2 = -2.0f * (qe * te.transpose());
+    d2.colwise() += qe.rowwise().squaredNorm();
+    d2.rowwise() += te.rowwise().squaredNorm().transpose();
+    for (int i = 0; i < query.rows; ++i) {
+      for (int j = 0; j < tail; ++j) nearest[i].emplace_back(std::max(d2(i, j), 0.0f), index_->indexed + j);
+    }
+  }
+  std::vector<std::vector<size_t>> indices(query.rows);
+  std::vector<std::vector<float>> dists(query.rows);
+  for (int i = 0; i < query.rows; ++i) {
+    auto& candidates = nearest[i];
+    const size_t keep = std::min<size_t>(k, candidates.size());
+    std::partial_sort(candidates.begin(), candidates.begin() + keep, candidates.end());
+    for (size_t n = 0; n < keep; ++n) {
+      dists[i].push_back(candidates[n].first);
+      indices[i].push_back(static_cast<size_t>(candidates[n].second));
+    }
+  }
 
   std::vector<int> votes(frame_ids_.size(), 0);
   std::vector<int> voted;

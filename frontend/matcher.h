@@ -44,8 +44,8 @@ struct DatabaseOptions {
   bool Check(std::string* why) const;
 };
 
-// The descriptors of every base frame in one FLANN index, built incrementally: each frame's
-// descriptors are added once, and the index is never rebuilt per query.
+// The descriptors of every base frame in one FLANN index: each frame's descriptors are added
+// once, the index is rebuilt when a base frame is added and never per query.
 class BaseFrameDatabase {
  public:
   explicit BaseFrameDatabase(const DatabaseOptions& options);
@@ -65,9 +65,10 @@ class BaseFrameDatabase {
 
  private:
   struct Index;
+  // Rows added since the last build that are searched exactly before a rebuild is due.
+  static constexpr int kMinTailRows = 2048;
   DatabaseOptions options_;
   std::unique_ptr<Index> index_;
-  std::vector<cv::Mat> descriptors_;  // owned rows the index points into
   std::vector<int> frame_ids_;        // per added frame
   std::vector<int> row_frame_;        // per database row: position in frame_ids_
 };
