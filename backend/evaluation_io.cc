@@ -17,40 +17,6 @@
 namespace ieslam {
 namespace {
 
-double ParseNumber(const std::string& token, const std::string& where) {
-  char* end = nullptr;
-  const double value = std::strtod(token.c_str(), &end);
-  if (end == token.c_str() || *end != '\0') {
-    throw DataError(where + ": not a number: '" + token + "'");
-  }
-  if (!std::isfinite(value)) throw DataError(where + ": non-finite value '" + token + "'");
-  return value;
-}
-
-// One pose line `t tx ty tz qx qy qz qw`; commas and tabs count as spaces, as in TUM's tools.
-TimedPose ParsePoseLine(std::string line, const std::string& where) {
-  std::replace(line.begin(), line.end(), ',', ' ');
-  std::istringstream fields(line);
-  std::vector<std::string> tokens;
-  std::string token;
-  while (tokens.size() < 8 && fields >> token) tokens.push_back(token);
-  if (tokens.size() < 8) {
-    throw DataError(where + ": expected 8 values `t tx ty tz qx qy qz qw`, got: " + line);
-  }
-  double v[8];
-  for (int i = 0; i < 8; ++i) v[i] = ParseNumber(tokens[i], where);
-  const Eigen::Quaterniond q(v[7], v[4], v[5], v[6]);
-  if (q.norm() < 0.5 || q.norm() > 1.5) {
-    throw DataError(where + ": quaternion is far from unit length (norm " +
-                    std::to_string(q.norm()) + ")");
-  }
-  TimedPose pose;
-  pose.timestamp = v[0];
-  pose.T_w_c.linear() = q.normalized().toRotationMatrix();
-  pose.T_w_c.translation() = Eigen::Vector3d(v[1], v[2], v[3]);
-  return pose;
-}
-
 // Shortest text that reads back to the same double; JSON has no NaN or infinity, so those
 // (which the evaluation does not produce) become null rather than an unreadable file.
 std::string JsonNumber(double value) {
@@ -109,7 +75,7 @@ Trajectory ReadTumTrajectoryForEvaluation(const std::string& path,
     ++line_number;
     const std::size_t first = line.find_first_not_of(" \t\r");
     if (first == std::string::npos || line[first] == '#') continue;
-    trajectory.push_back(ParsePoseLine(line, path + ":" + std::to_string(line_number)));
+    trajectory.push_back(ParseTumPoseLine(line, path + ":" + std::to_string(line_number)));
   }
   // TUM's scripts key poses by stamp in a dict: the order of lines does not matter and a
   // repeated stamp keeps its last line. Real ground truth has such repeats (fr2_desk does).

@@ -1,5 +1,6 @@
 #include "core/trajectory.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -9,6 +10,34 @@
 #include "core/file_util.h"
 
 namespace ieslam {
+
+TimedPose ParseTumPoseLine(std::string line, const std::string& where) {
+  std::replace(line.begin(), line.end(), ',', ' ');
+  std::istringstream fields(line);
+  double v[8];
+  for (double& value : v) {
+    std::string token;
+    if (!(fields >> token)) {
+      throw DataError(where + ": expected 8 values `t tx ty tz qx qy qz qw`, got: " + line);
+    }
+    char* end = nullptr;
+    value = std::strtod(token.c_str(), &end);
+    if (end == token.c_str() || *end != '\0') {
+      throw DataError(where + ": not a number: '" + token + "'");
+    }
+    if (!std::isfinite(value)) throw DataError(where + ": non-finite value '" + token + "'");
+  }
+  const Eigen::Quaterniond q(v[7], v[4], v[5], v[6]);
+  if (q.norm() < 0.5 || q.norm() > 1.5) {
+    throw DataError(where + ": quaternion is far from unit length (norm " +
+                    std::to_string(q.norm()) + ")");
+  }
+  TimedPose pose;
+  pose.timestamp = v[0];
+  pose.T_w_c.linear() = q.normalized().toRotationMatrix();
+  pose.T_w_c.translation() = Eigen::Vector3d(v[1], v[2], v[3]);
+  return pose;
+}
 
 Trajectory ReadTumTrajectory(const std::string& path) {
   RequireFile(path, "trajectory file");
@@ -22,39 +51,14 @@ Trajectory ReadTumTrajectory(const std::string& path) {
     const std::string where = path + ":" + std::to_string(line_number);
     const size_t first = line.find_first_not_of(" \t\r");
     if (first == std::string::npos || line[first] == '#') continue;
-    for (char& c : line) {
-      if (c == ',') c = ' ';  // TUM's tools accept comma-separated lines too
-    }
-    std::istringstream fields(line);
-    double v[8];
-    for (double& value : v) {
-      std::string token;
-      if (!(fields >> token)) {
-        throw DataError(where + ": expected 8 values `t tx ty tz qx qy qz qw`, got: " + line);
-      }
-      char* end = nullptr;
-      value = std::strtod(token.c_str(), &end);
-      if (end == token.c_str() || *end != '\0') {
-        throw DataError(where + ": not a number: '" + token + "'");
-      }
-      if (!std::isfinite(value)) throw DataError(where + ": non-finite value '" + token + "'");
-    }
-    const Eigen::Quaterniond q(v[7], v[4], v[5], v[6]);
-    if (q.norm() < 0.5 || q.norm() > 1.5) {
-      throw DataError(where + ": quaternion is far from unit length (norm " +
-                      std::to_string(q.norm()) + ")");
-    }
-    if (!trajectory.empty() && !(v[0] > trajectory.back().timestamp)) {
+    const TimedPose pose = ParseTumPoseLine(line, where);
+    if (!trajectory.empty() && !(pose.timestamp > trajectory.back().timestamp)) {
       std::ostringstream s;
       s.precision(6);
-      s << std::fixed << where << ": timestamps must increase strictly, got " << v[0]
+      s << std::fixed << where << ": timestamps must increase strictly, got " << pose.timestamp
         << " after " << trajectory.back().timestamp;
       throw DataError(s.str());
     }
-    TimedPose pose;
-    pose.timestamp = v[0];
-    pose.T_w_c.linear() = q.normalized().toRotationMatrix();
-    pose.T_w_c.translation() = Eigen::Vector3d(v[1], v[2], v[3]);
     trajectory.push_back(pose);
   }
   return trajectory;

@@ -16,6 +16,11 @@ struct TimedPose {
 
 using Trajectory = std::vector<TimedPose>;
 
+// One pose line `t tx ty tz qx qy qz qw` (commas count as spaces, as in TUM's tools). Throws
+// DataError prefixed with `where` (file:line) for missing or non-numeric values, NaN/inf, or a
+// quaternion far from unit length; the quaternion is normalised.
+TimedPose ParseTumPoseLine(std::string line, const std::string& where);
+
 // Reads a TUM trajectory. Throws DataError naming the file and line for a malformed line,
 // NaN/inf values, a zero quaternion, or timestamps that are not strictly increasing.
 // Quaternions are normalised (files print them to 4-6 decimals).
