@@ -37,7 +37,7 @@ struct RgbdSourceOptions {
   bool Check(std::string* why) const;
 };
 
-// A frame the source could not use, and why (for report.json's frames_skipped).
+// Seconds the source spent in each front-end stage, summed over the frames it processed.
 struct SourceTimings {
   double extract_s = 0.0;
   double lift_s = 0.0;
@@ -64,7 +64,6 @@ class RgbdFrameSource : public FrameSource {
   const ProcessedFrame& Processed(int frame);
 
  private:
-  struct Pending;
   CandidateFrame Build(int frame, const std::vector<int>& bases);
   FrameRegistration Register(int base, int frame);
 
