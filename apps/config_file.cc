@@ -128,6 +128,7 @@ void ApplyConfigFile(const std::string& path, RunOptions* o) {
          x->Int("min_common_features", &o->selector.min_common_features);
          x->Double("map_gain_threshold", &o->selector.map_gain_threshold);
          x->Int("max_recovery_frames", &o->selector.max_recovery_frames);
+         x->Double("candidate_spacing_s", &o->selector.candidate_spacing_s);
        }},
       {"filter", [&](Section* x) { x->Double("anchor_information", &o->filter.anchor_information); }},
       {"map",

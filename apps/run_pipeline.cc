@@ -69,7 +69,9 @@ Json RunOptions::ToJson() const {
       .Set("buffer", selector.buffer_size)
       .Set("interval", selector.interval)
       .Set("min_common_features", selector.min_common_features)
-      .Set("map_gain_threshold", selector.map_gain_threshold);
+      .Set("map_gain_threshold", selector.map_gain_threshold)
+      .Set("max_recovery_frames", selector.max_recovery_frames)
+      .Set("candidate_spacing_s", selector.candidate_spacing_s);
   json["filter"].Set("anchor_information", filter.anchor_information);
   json["map"].Set("voxel_size_m", map.voxel_size_m).Set("pixel_step", map.pixel_step);
   json.Set("threads", threads);

@@ -170,22 +170,47 @@ class Run {
     result_->seconds_selection += Since(start);
   }
 
+  // Places a frame that is not a candidate through its registration to the last base frame.
+  void PlaceBetween(int frame) {
+    if (result_->frames[frame].placed) return;
+    const auto start = Clock::now();
+    const CandidateFrame c = source_->PrepareAgainst(frame, last_base_);
+    result_->seconds_selection += Since(start);
+    Place(c, true);
+  }
+
   void RunInfo() {
     const int n = source_->size();
+    const double spacing = options_.candidate_spacing_s;
     int next = 1;
     while (next < n) {
       if (Stopped(next)) return;
+      // Candidates at least `spacing` apart, starting that far after the last base frame.
       std::vector<CandidateFrame> buffer;
+      double previous = source_->timestamp(last_base_);
       int f = next;
+      int refused = -1;
       for (; f < n && static_cast<int>(buffer.size()) < options_.buffer_size; ++f) {
+        if (source_->timestamp(f) - previous < spacing) {
+          PlaceBetween(f);
+          continue;
+        }
         CandidateFrame c = Prepare(f);
-        if (!Usable(c)) break;
+        if (!Usable(c)) {
+          refused = f;
+          break;
+        }
+        previous = source_->timestamp(f);
         buffer.push_back(std::move(c));
       }
       if (buffer.empty()) {
-        // Frame `next` does not register: recover through dropped frames, or skip it.
-        if (Recover(next)) continue;
-        ++next;
+        if (refused < 0) break;  // the sequence ended within the spacing
+        // Frame `refused` does not register: recover through dropped frames, or skip it.
+        if (Recover(refused)) {
+          next = last_base_ + 1;
+          continue;
+        }
+        next = refused + 1;
         Progress(next);
         continue;
       }
@@ -299,6 +324,10 @@ bool SelectorOptions::Check(std::string* why) const {
   if (min_common_features < 3) return fail("min_common_features must be >= 3");
   if (!std::isfinite(map_gain_threshold)) return fail("map_gain_threshold must be finite");
   if (max_recovery_frames < 0) return fail("max_recovery_frames must be >= 0");
+  if (!(candidate_spacing_s >= 0.0) || !std::isfinite(candidate_spacing_s)) {
+    return fail("candidate_spacing_s must be >= 0 and finite, got " +
+                std::to_string(candidate_spacing_s));
+  }
   return true;
 }
 

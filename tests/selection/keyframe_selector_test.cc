@@ -88,6 +88,40 @@ TEST(KeyframeSelectorTest, DeadReckoningDriftsMoreThanTheFilter) {
   EXPECT_GT(chained_error, 2.0 * filtered.final_pose_error_m);
 }
 
+// The same poses delivered at 10 Hz: candidates are spaced by candidate_spacing_s, the
+// frames in between are placed by registration, and fewer frames enter the filter.
+TEST(KeyframeSelectorTest, CandidatesAreSpacedInTimeAndTheFramesBetweenArePlaced) {
+  const KnownAssociationInput input = ShortSimulation(true);
+  const int n = static_cast<int>(input.observations.size());
+  std::vector<double> timestamps(n);
+  for (int k = 0; k < n; ++k) timestamps[k] = 0.1 * k;
+  auto run = [&](double spacing) {
+    SelectorOptions options = Kind(SelectorKind::kInfo);
+    options.candidate_spacing_s = spacing;
+    KnownAssociationSource source(input.observations, timestamps, input.camera,
+                                  PoseToIsometry(input.T_w_c_true[0]));
+    InformationFilter filter(InformationFilterOptions(), input.camera);
+    return KeyframeSelector(options).Run(&source, &filter);
+  };
+  const SelectionResult every = run(0.0);
+  const SelectionResult spaced = run(0.25);  // every third frame at most
+  EXPECT_LT(spaced.selected.size(), every.selected.size());
+  for (const SelectionDecision& d : spaced.decisions) {
+    for (size_t k = 1; k < d.candidates.size(); ++k) {
+      EXPECT_GE(d.candidates[k] - d.candidates[k - 1], 3) << "decision at " << d.candidates[0];
+    }
+  }
+  for (size_t i = 1; i < spaced.selected.size(); ++i) {
+    EXPECT_GE(spaced.selected[i] - spaced.selected[i - 1], 3);
+  }
+  for (const FramePlacement& p : spaced.frames) EXPECT_TRUE(p.placed) << "frame " << p.frame;
+  SelectorOptions bad;
+  bad.candidate_spacing_s = -0.1;
+  std::string why;
+  EXPECT_FALSE(bad.Check(&why));
+  EXPECT_NE(why.find("candidate_spacing_s"), std::string::npos);
+}
+
 TEST(KeyframeSelectorTest, OptionsAreChecked) {
   SelectorOptions options;
   std::string why;
