@@ -17,15 +17,15 @@ struct Command {
   const char* status;                   // for commands not built yet: where the work stands
 };
 
-// Every subcommand of ../shared/CLI.md, in the order `ieslam --help` lists them.
+// Every subcommand of ../shared/CLI.md, and `refine` (batch refinement of an earlier run),
+// in the order `ieslam --help` lists them.
 const std::vector<Command>& Commands();
 
 int EvaluateCommand(const CommandArgs& args);
+int RefineCommand(const CommandArgs& args);
 int RegisterCommand(const CommandArgs& args);
 int RunCommand(const CommandArgs& args);
 int SimulateCommand(const CommandArgs& args);
 int SynthCommand(const CommandArgs& args);
-
-int EvaluateCommand(const CommandArgs& args);
 
 }  // namespace ieslam

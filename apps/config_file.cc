@@ -128,13 +128,23 @@ void ApplyConfigFile(const std::string& path, RunOptions* o) {
          x->Int("min_common_features", &o->selector.min_common_features);
          x->Double("map_gain_threshold", &o->selector.map_gain_threshold);
          x->Int("max_recovery_frames", &o->selector.max_recovery_frames);
-         x->Double("candidate_spacing_s", &o->selector.candidate_spacing_s);
+         x->Double("min_view_change_deg", &o->selector.min_view_change_deg);
        }},
       {"filter", [&](Section* x) { x->Double("anchor_information", &o->filter.anchor_information); }},
       {"map",
        [&](Section* x) {
          x->Double("voxel_size_m", &o->map.voxel_size_m);
          x->Int("pixel_step", &o->map.pixel_step);
+       }},
+      {"ba",
+       [&](Section* x) {
+         std::string loss = BaRobustLossName(o->ba.robust_loss);
+         x->String("robust_loss", &loss);
+         if (loss == "none") o->ba.robust_loss = BaRobustLoss::kNone;
+         else if (loss == "huber") o->ba.robust_loss = BaRobustLoss::kHuber;
+         else throw ConfigError(path + ": ba.robust_loss must be none or huber, got '" + loss + "'");
+         x->Double("huber_scale", &o->ba.huber_scale);
+         x->Int("max_iterations", &o->ba.max_iterations);
        }},
   };
   const cv::FileNode root = fs.root();
@@ -150,7 +160,7 @@ void ApplyConfigFile(const std::string& path, RunOptions* o) {
   }
   std::string why;
   if (!o->source.Check(&why) || !o->selector.Check(&why) || !o->filter.Check(&why) ||
-      !o->map.Check(&why)) {
+      !o->map.Check(&why) || !o->ba.Check(&why)) {
     throw ConfigError(path + ": " + why);
   }
 }

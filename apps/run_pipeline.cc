@@ -6,6 +6,7 @@
 #include <opencv2/core.hpp>
 
 #include "apps/app_util.h"
+#include "apps/batch_refinement.h"
 #include "backend/evaluation.h"
 #include "backend/filter_smoother_comparison.h"
 #include "core/error.h"
@@ -16,14 +17,6 @@ namespace {
 
 double SecondsSince(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
-
-// ATE of a written estimate against the written ground truth, exactly as `ieslam evaluate`
-// computes it from the same files.
-double AteOfFiles(const std::string& gt_path, const std::string& est_path) {
-  const Trajectory gt = ReadTumTrajectoryForEvaluation(gt_path);
-  const Trajectory est = ReadTumTrajectoryForEvaluation(est_path);
-  return ComputeAte(gt, est, EvaluationOptions(), gt_path, est_path).translation.rmse;
 }
 
 }  // namespace
@@ -71,9 +64,13 @@ Json RunOptions::ToJson() const {
       .Set("min_common_features", selector.min_common_features)
       .Set("map_gain_threshold", selector.map_gain_threshold)
       .Set("max_recovery_frames", selector.max_recovery_frames)
-      .Set("candidate_spacing_s", selector.candidate_spacing_s);
+      .Set("min_view_change_deg", selector.min_view_change_deg);
   json["filter"].Set("anchor_information", filter.anchor_information);
   json["map"].Set("voxel_size_m", map.voxel_size_m).Set("pixel_step", map.pixel_step);
+  json["ba"]
+      .Set("robust_loss", BaRobustLossName(ba.robust_loss))
+      .Set("huber_scale", ba.huber_scale)
+      .Set("max_iterations", ba.max_iterations);
   json.Set("threads", threads);
   return json;
 }
@@ -128,48 +125,43 @@ RunSummary RunPipeline(const RunOptions& options, const std::function<bool()>& s
     selected_lines += line;
   }
   WriteTextAtomically(JoinPath(out, "selected_frames.txt"), selected_lines);
-  const bool has_gt = dataset->has_ground_truth();
-  if (has_gt) {
+  if (dataset->has_ground_truth()) {
     WriteTumTrajectory(JoinPath(out, "groundtruth.tum"), dataset->GroundTruth(), "ground truth");
+  }
+  // The rigid alignment needs 3 poses; a run interrupted that early reports no ATE.
+  const bool has_gt = dataset->has_ground_truth() && keyframes.size() >= 3;
+  if (has_gt) {
     summary.ate_keyframes_m = AteOfFiles(JoinPath(out, "groundtruth.tum"), JoinPath(out, "keyframes.tum"));
     summary.ate_trajectory_m =
         AteOfFiles(JoinPath(out, "groundtruth.tum"), JoinPath(out, "trajectory.tum"));
   }
 
-  // Batch refinement: the bundle adjustment over the selected poses and their features,
-  // started from the filter's estimate, with the same observations and Q.
+  // The bundle-adjustment problem (the selected poses and features as the filter estimates
+  // them, with the observations and Q it used), written so that `ieslam refine` can refine
+  // this run again later; with --refine, refined now.
   Json comparison;
   double ba_seconds = 0.0;
   if (options.refine && !selection.chained_T_w_c.empty()) {
     throw ConfigError("--refine needs a filter: not available with --selector deadreckoning");
   }
-  if (options.refine) {
-    const auto ba_start = std::chrono::steady_clock::now();
-    BundleAdjustmentOptions ba = options.ba;
-    if (options.threads > 0) ba.num_threads = options.threads;
-    const BundleAdjustmentResult refined = SolveBundleAdjustment(
-        MakeProblemFromFilter(filter, selection.observations), dataset->rig().colour, ba);
-    ba_seconds = SecondsSince(ba_start);
-    Trajectory refined_trajectory;
-    for (const auto& [frame, T_w_c] : refined.T_w_c) {
-      refined_trajectory.push_back({dataset->info(frame).timestamp, T_w_c});
+  if (selection.chained_T_w_c.empty() && filter.num_poses() > 0) {
+    StoredBaProblem stored;
+    stored.problem = MakeProblemFromFilter(filter, selection.observations);
+    stored.camera = dataset->rig().colour;
+    for (const auto& [frame, T] : stored.problem.T_w_c) {
+      stored.timestamps[frame] = dataset->info(frame).timestamp;
     }
-    std::sort(refined_trajectory.begin(), refined_trajectory.end(),
-              [](const TimedPose& a, const TimedPose& b) { return a.timestamp < b.timestamp; });
-    WriteTumTrajectory(JoinPath(out, "refined.tum"), refined_trajectory,
-                       "ieslam bundle-adjusted keyframes");
-    if (has_gt) {
-      summary.ate_refined_m = AteOfFiles(JoinPath(out, "groundtruth.tum"), JoinPath(out, "refined.tum"));
+    WriteBaProblem(JoinPath(out, "ba_problem.txt"), stored);
+    if (options.refine) {
+      BundleAdjustmentOptions ba = options.ba;
+      if (options.threads > 0) ba.num_threads = options.threads;
+      const RefinementOutcome refined =
+          RefineToFiles(stored, FilterEstimate(filter), ba, out,
+                        has_gt ? JoinPath(out, "groundtruth.tum") : std::string());
+      ba_seconds = refined.seconds;
+      summary.ate_refined_m = refined.ate_refined_m;
+      comparison = refined.comparison;
     }
-    comparison = ComparisonToJson(
-        CompareFilterToSmoother(FilterEstimate(filter), SmootherEstimate(refined)), false);
-    comparison.Set("ba", Json::Object()
-                             .Set("initial_cost", refined.initial_cost)
-                             .Set("final_cost", refined.final_cost)
-                             .Set("iterations", refined.iterations)
-                             .Set("residuals", refined.num_residuals)
-                             .Set("termination", refined.termination)
-                             .Set("seconds", refined.solve_time_s));
   }
 
   // The dense map: the selected frames' clouds at their estimated poses.

@@ -20,6 +20,18 @@ double Since(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
 }
 
+// The larger of the rotation angle of `T` and its parallax angle atan(|t| / median range of
+// the observations), in degrees.
+double ViewChangeDeg(const Eigen::Isometry3d& T, const std::vector<FeatureObservation>& observations) {
+  const double rotation = Eigen::AngleAxisd(T.linear()).angle();
+  std::vector<double> ranges;
+  for (const FeatureObservation& obs : observations) ranges.push_back(obs.z(2));
+  if (ranges.empty()) return rotation * 180.0 / M_PI;
+  std::nth_element(ranges.begin(), ranges.begin() + ranges.size() / 2, ranges.end());
+  const double parallax = std::atan2(T.translation().norm(), ranges[ranges.size() / 2]);
+  return std::max(rotation, parallax) * 180.0 / M_PI;
+}
+
 // A decision that adds one frame without scoring a buffer.
 SelectionDecision Added(int frame, const std::string& reason) {
   SelectionDecision decision;
@@ -170,37 +182,43 @@ class Run {
     result_->seconds_selection += Since(start);
   }
 
-  // Places a frame that is not a candidate through its registration to the last base frame.
-  void PlaceBetween(int frame) {
-    if (result_->frames[frame].placed) return;
+  // Registers a frame against the last base frame only, which places it.
+  CandidateFrame PrepareAgainstLastBase(int frame) {
     const auto start = Clock::now();
     const CandidateFrame c = source_->PrepareAgainst(frame, last_base_);
     result_->seconds_selection += Since(start);
     Place(c, true);
+    return c;
   }
 
   void RunInfo() {
     const int n = source_->size();
-    const double spacing = options_.candidate_spacing_s;
     int next = 1;
     while (next < n) {
       if (Stopped(next)) return;
-      // Candidates at least `spacing` apart, starting that far after the last base frame.
+      // Candidates: frames that change the view enough from the previous candidate (from the
+      // last base frame, for the first one). Frames that do not register to the last base
+      // frame are candidates too: the full preparation may find other base frames.
       std::vector<CandidateFrame> buffer;
-      double previous = source_->timestamp(last_base_);
+      Eigen::Isometry3d T_base_previous = Eigen::Isometry3d::Identity();
       int f = next;
       int refused = -1;
       for (; f < n && static_cast<int>(buffer.size()) < options_.buffer_size; ++f) {
-        if (source_->timestamp(f) - previous < spacing) {
-          PlaceBetween(f);
-          continue;
+        if (options_.min_view_change_deg > 0.0) {
+          const CandidateFrame against = PrepareAgainstLastBase(f);
+          if (against.registered) {
+            const Eigen::Isometry3d T_previous_f = T_base_previous.inverse() * against.T_base_c;
+            if (ViewChangeDeg(T_previous_f, against.observations) < options_.min_view_change_deg) {
+              continue;
+            }
+            T_base_previous = against.T_base_c;
+          }
         }
         CandidateFrame c = Prepare(f);
         if (!Usable(c)) {
           refused = f;
           break;
         }
-        previous = source_->timestamp(f);
         buffer.push_back(std::move(c));
       }
       if (buffer.empty()) {
@@ -324,9 +342,8 @@ bool SelectorOptions::Check(std::string* why) const {
   if (min_common_features < 3) return fail("min_common_features must be >= 3");
   if (!std::isfinite(map_gain_threshold)) return fail("map_gain_threshold must be finite");
   if (max_recovery_frames < 0) return fail("max_recovery_frames must be >= 0");
-  if (!(candidate_spacing_s >= 0.0) || !std::isfinite(candidate_spacing_s)) {
-    return fail("candidate_spacing_s must be >= 0 and finite, got " +
-                std::to_string(candidate_spacing_s));
+  if (!(min_view_change_deg >= 0.0) || !(min_view_change_deg < 90.0)) {
+    return fail("min_view_change_deg must be in [0, 90), got " + std::to_string(min_view_change_deg));
   }
   return true;
 }

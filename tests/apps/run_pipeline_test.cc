@@ -83,6 +83,32 @@ TEST_F(RunPipelineTest, WritesEveryOutputAndTracksTheSyntheticSequence) {
 
 // Two runs of the command, as a user makes them (separate processes: CHOLMOD's METIS keeps
 // its random state across orderings within one process).
+// --refine writes refined.tum and the comparison; `ieslam refine` on the run's
+// ba_problem.txt later gives the same refined.tum, byte for byte.
+TEST_F(RunPipelineTest, RefineNowAndRefineLaterFromTheStoredProblemAgree) {
+  RunOptions options = Options("refined");
+  options.refine = true;
+  const RunSummary summary = RunPipeline(options);
+  const fs::path out = root_ / "refined";
+  ASSERT_TRUE(fs::is_regular_file(out / "ba_problem.txt"));
+  ASSERT_TRUE(fs::is_regular_file(out / "refined.tum"));
+  EXPECT_LT(summary.ate_refined_m, 0.02);
+  EXPECT_NE(ReadFile(out / "report.json").find("\"filter_vs_smoother\""), std::string::npos);
+  const fs::path later = root_ / "refined_later";
+  const std::string command = std::string(IESLAM_BINARY) + " refine --run " + out.string() +
+                              " --output " + later.string() + " > /dev/null";
+  ASSERT_EQ(std::system(command.c_str()), 0) << command;
+  EXPECT_EQ(ReadFile(later / "refined.tum"), ReadFile(out / "refined.tum"));
+  const std::string report = ReadFile(later / "report.json");
+  EXPECT_NE(report.find("\"refined\""), std::string::npos) << report;
+  // A run directory without a stored problem is a data error (exit 3) naming the file.
+  const std::string missing = std::string(IESLAM_BINARY) + " refine --run " + later.string() +
+                              " --output " + (root_ / "x").string() + " 2> /dev/null";
+  const int status = std::system(missing.c_str());
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 3);
+}
+
 TEST_F(RunPipelineTest, SingleThreadRunsAreByteIdentical) {
   const std::string dataset = (root_ / "synthetic").string();
   for (const char* out : {"a", "b"}) {

@@ -1,5 +1,8 @@
 #include "selection/keyframe_selector.h"
 
+#include <algorithm>
+#include <cmath>
+
 #include <gtest/gtest.h>
 
 #include "frontend/paper_simulation.h"
@@ -88,38 +91,43 @@ TEST(KeyframeSelectorTest, DeadReckoningDriftsMoreThanTheFilter) {
   EXPECT_GT(chained_error, 2.0 * filtered.final_pose_error_m);
 }
 
-// The same poses delivered at 10 Hz: candidates are spaced by candidate_spacing_s, the
-// frames in between are placed by registration, and fewer frames enter the filter.
-TEST(KeyframeSelectorTest, CandidatesAreSpacedInTimeAndTheFramesBetweenArePlaced) {
+// A frame becomes a candidate only when it changes the view enough from the previous one:
+// with the threshold at 2.5 times the trajectory's typical per-frame rotation, candidates are
+// at least two frames apart, fewer frames enter the filter, and every frame is still placed.
+TEST(KeyframeSelectorTest, CandidatesNeedAViewChangeAndTheFramesBetweenArePlaced) {
   const KnownAssociationInput input = ShortSimulation(true);
-  const int n = static_cast<int>(input.observations.size());
-  std::vector<double> timestamps(n);
-  for (int k = 0; k < n; ++k) timestamps[k] = 0.1 * k;
-  auto run = [&](double spacing) {
+  std::vector<double> per_frame;
+  for (size_t k = 1; k < input.T_w_c_true.size(); ++k) {
+    const Eigen::Isometry3d T = PoseToIsometry(input.T_w_c_true[k - 1]).inverse() *
+                                PoseToIsometry(input.T_w_c_true[k]);
+    per_frame.push_back(Eigen::AngleAxisd(T.linear()).angle() * 180.0 / M_PI);
+  }
+  std::sort(per_frame.begin(), per_frame.end());
+  const double typical = per_frame[per_frame.size() / 2];
+  ASSERT_GT(typical, 0.1);
+  auto run = [&](double min_view_change_deg) {
     SelectorOptions options = Kind(SelectorKind::kInfo);
-    options.candidate_spacing_s = spacing;
-    KnownAssociationSource source(input.observations, timestamps, input.camera,
-                                  PoseToIsometry(input.T_w_c_true[0]));
-    InformationFilter filter(InformationFilterOptions(), input.camera);
-    return KeyframeSelector(options).Run(&source, &filter);
+    options.min_view_change_deg = min_view_change_deg;
+    return RunKnownAssociation(input, options, InformationFilterOptions());
   };
-  const SelectionResult every = run(0.0);
-  const SelectionResult spaced = run(0.25);  // every third frame at most
-  EXPECT_LT(spaced.selected.size(), every.selected.size());
-  for (const SelectionDecision& d : spaced.decisions) {
-    for (size_t k = 1; k < d.candidates.size(); ++k) {
-      EXPECT_GE(d.candidates[k] - d.candidates[k - 1], 3) << "decision at " << d.candidates[0];
+  const KnownAssociationMetrics every = run(0.0);
+  const KnownAssociationMetrics spaced = run(2.5 * typical);
+  EXPECT_LT(spaced.frames_used, every.frames_used);
+  int gaps = 0, wide = 0;
+  for (const SelectionDecision& d : spaced.selection.decisions) {
+    for (size_t k = 1; k < d.candidates.size(); ++k, ++gaps) {
+      if (d.candidates[k] - d.candidates[k - 1] >= 2) ++wide;
     }
   }
-  for (size_t i = 1; i < spaced.selected.size(); ++i) {
-    EXPECT_GE(spaced.selected[i] - spaced.selected[i - 1], 3);
-  }
-  for (const FramePlacement& p : spaced.frames) EXPECT_TRUE(p.placed) << "frame " << p.frame;
+  ASSERT_GT(gaps, 10);
+  EXPECT_GT(wide, 0.8 * gaps);  // the rotation varies along the trajectory
+  for (const FramePlacement& p : spaced.selection.frames) EXPECT_TRUE(p.placed) << "frame " << p.frame;
+  EXPECT_LT(spaced.ate_rmse_m, 0.05);
   SelectorOptions bad;
-  bad.candidate_spacing_s = -0.1;
+  bad.min_view_change_deg = -1.0;
   std::string why;
   EXPECT_FALSE(bad.Check(&why));
-  EXPECT_NE(why.find("candidate_spacing_s"), std::string::npos);
+  EXPECT_NE(why.find("min_view_change_deg"), std::string::npos);
 }
 
 TEST(KeyframeSelectorTest, OptionsAreChecked) {

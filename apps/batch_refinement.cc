@@ -1,0 +1,47 @@
+#include "apps/batch_refinement.h"
+
+#include <algorithm>
+#include <chrono>
+
+#include "backend/evaluation.h"
+#include "core/file_util.h"
+#include "core/trajectory.h"
+
+namespace ieslam {
+
+double AteOfFiles(const std::string& gt_path, const std::string& est_path) {
+  const Trajectory gt = ReadTumTrajectoryForEvaluation(gt_path);
+  const Trajectory est = ReadTumTrajectoryForEvaluation(est_path);
+  return ComputeAte(gt, est, EvaluationOptions(), gt_path, est_path).translation.rmse;
+}
+
+RefinementOutcome RefineToFiles(const StoredBaProblem& stored, const SlamEstimate& filter_estimate,
+                                const BundleAdjustmentOptions& options, const std::string& out,
+                                const std::string& gt_path) {
+  RefinementOutcome outcome;
+  const auto start = std::chrono::steady_clock::now();
+  const BundleAdjustmentResult refined =
+      SolveBundleAdjustment(stored.problem, stored.camera, options);
+  outcome.seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  Trajectory trajectory;
+  for (const auto& [frame, T_w_c] : refined.T_w_c) {
+    trajectory.push_back({stored.timestamps.at(frame), T_w_c});
+  }
+  std::sort(trajectory.begin(), trajectory.end(),
+            [](const TimedPose& a, const TimedPose& b) { return a.timestamp < b.timestamp; });
+  WriteTumTrajectory(JoinPath(out, "refined.tum"), trajectory, "ieslam bundle-adjusted keyframes");
+  if (!gt_path.empty()) outcome.ate_refined_m = AteOfFiles(gt_path, JoinPath(out, "refined.tum"));
+  outcome.comparison = ComparisonToJson(
+      CompareFilterToSmoother(filter_estimate, SmootherEstimate(refined)), false);
+  outcome.comparison.Set("ba", Json::Object()
+                                   .Set("initial_cost", refined.initial_cost)
+                                   .Set("final_cost", refined.final_cost)
+                                   .Set("iterations", refined.iterations)
+                                   .Set("residuals", refined.num_residuals)
+                                   .Set("termination", refined.termination)
+                                   .Set("seconds", refined.solve_time_s));
+  return outcome;
+}
+
+}  // namespace ieslam

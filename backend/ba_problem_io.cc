@@ -1,0 +1,189 @@
+#include "backend/ba_problem_io.h"
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+#include <Eigen/Cholesky>
+#include <glog/logging.h>
+
+#include "core/error.h"
+#include "core/file_util.h"
+
+namespace ieslam {
+namespace {
+
+constexpr const char* kMagic = "ieslam_ba_problem";
+constexpr int kVersion = 1;
+
+// Exactly representable: 17 significant digits round-trip every double.
+std::string Exact(double value) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof(buffer), "%.17g", value);
+  return buffer;
+}
+
+// The fields of one line after its record name, read as numbers.
+class LineReader {
+ public:
+  LineReader(std::istringstream* in, std::string where) : in_(in), where_(std::move(where)) {}
+
+  double Number(const char* what) {
+    std::string token;
+    if (!(*in_ >> token)) throw DataError(where_ + ": missing " + what);
+    char* end = nullptr;
+    const double value = std::strtod(token.c_str(), &end);
+    if (end == token.c_str() || *end != '\0') {
+      throw DataError(where_ + ": " + what + " is not a number: '" + token + "'");
+    }
+    if (!std::isfinite(value)) throw DataError(where_ + ": " + what + " is not finite: " + token);
+    return value;
+  }
+
+  int64_t Integer(const char* what) {
+    const double value = Number(what);
+    if (value != std::floor(value) || std::abs(value) > 9.0e15) {
+      throw DataError(where_ + ": " + what + " must be an integer, got " + Exact(value));
+    }
+    return static_cast<int64_t>(value);
+  }
+
+  void End() {
+    std::string extra;
+    if (*in_ >> extra) throw DataError(where_ + ": unexpected value '" + extra + "'");
+  }
+
+  const std::string& where() const { return where_; }
+
+ private:
+  std::istringstream* in_;
+  std::string where_;
+};
+
+}  // namespace
+
+void WriteBaProblem(const std::string& path, const StoredBaProblem& stored) {
+  const BundleAdjustmentProblem& p = stored.problem;
+  WriteFileAtomically(path, [&](std::ostream& out) {
+    out << "# ieslam bundle-adjustment problem: the selected poses (T_w_c), the features and the\n"
+           "# observations (u v d, undistorted) with their covariance Q that the filter used.\n"
+           "# Refine it with: ieslam refine --run <this run's directory> --output OUT\n";
+    out << kMagic << ' ' << kVersion << '\n';
+    const PinholeCamera& c = stored.camera;
+    out << "camera " << c.width << ' ' << c.height << ' ' << Exact(c.fx) << ' ' << Exact(c.fy)
+        << ' ' << Exact(c.cx) << ' ' << Exact(c.cy) << '\n';
+    out << "anchor " << p.AnchorFrameId() << '\n';
+    for (const auto& [frame, T] : p.T_w_c) {
+      const auto t = stored.timestamps.find(frame);
+      CHECK(t != stored.timestamps.end()) << "no timestamp for pose " << frame;
+      out << "pose " << frame << ' ' << Exact(t->second);
+      for (int r = 0; r < 3; ++r) {
+        for (int k = 0; k < 3; ++k) out << ' ' << Exact(T.linear()(r, k));
+      }
+      for (int r = 0; r < 3; ++r) out << ' ' << Exact(T.translation()(r));
+      out << '\n';
+    }
+    for (const auto& [id, p_w] : p.p_w) {
+      out << "feature " << id << ' ' << Exact(p_w.x()) << ' ' << Exact(p_w.y()) << ' '
+          << Exact(p_w.z()) << '\n';
+    }
+    for (const BundleAdjustmentObservation& o : p.observations) {
+      const FeatureObservation& obs = o.observation;
+      out << "obs " << o.frame_id << ' ' << obs.feature_id;
+      for (int r = 0; r < 3; ++r) out << ' ' << Exact(obs.z(r));
+      for (int r = 0; r < 3; ++r) {
+        for (int k = r; k < 3; ++k) out << ' ' << Exact(obs.Q(r, k));
+      }
+      out << '\n';
+    }
+  });
+}
+
+StoredBaProblem ReadBaProblem(const std::string& path) {
+  RequireFile(path, "bundle-adjustment problem");
+  std::ifstream in(path);
+  if (!in) throw DataError("cannot read " + path);
+  StoredBaProblem stored;
+  BundleAdjustmentProblem& p = stored.problem;
+  bool header = false, camera = false;
+  std::string line;
+  for (int number = 1; std::getline(in, line); ++number) {
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream fields(line);
+    std::string record;
+    fields >> record;
+    LineReader read(&fields, path + ":" + std::to_string(number));
+    if (!header) {
+      if (record != kMagic) throw DataError(read.where() + ": not an ieslam bundle-adjustment problem");
+      if (read.Integer("version") != kVersion) throw DataError(read.where() + ": unsupported version");
+      header = true;
+    } else if (record == "camera") {
+      PinholeCamera& c = stored.camera;
+      c.width = static_cast<int>(read.Integer("width"));
+      c.height = static_cast<int>(read.Integer("height"));
+      c.fx = read.Number("fx");
+      c.fy = read.Number("fy");
+      c.cx = read.Number("cx");
+      c.cy = read.Number("cy");
+      std::string why;
+      if (!c.Check(&why)) throw DataError(read.where() + ": " + why);
+      camera = true;
+    } else if (record == "anchor") {
+      p.anchor_frame_id = static_cast<int>(read.Integer("anchor frame"));
+    } else if (record == "pose") {
+      const int frame = static_cast<int>(read.Integer("frame"));
+      const double timestamp = read.Number("timestamp");
+      Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+      for (int r = 0; r < 3; ++r) {
+        for (int k = 0; k < 3; ++k) T.linear()(r, k) = read.Number("rotation");
+      }
+      for (int r = 0; r < 3; ++r) T.translation()(r) = read.Number("translation");
+      const Eigen::Matrix3d R = T.linear();
+      if ((R.transpose() * R - Eigen::Matrix3d::Identity()).norm() > 1e-6 || R.determinant() < 0) {
+        throw DataError(read.where() + ": pose " + std::to_string(frame) + " has no rotation matrix");
+      }
+      if (!p.T_w_c.emplace(frame, T).second) {
+        throw DataError(read.where() + ": pose " + std::to_string(frame) + " given twice");
+      }
+      stored.timestamps[frame] = timestamp;
+    } else if (record == "feature") {
+      const int64_t id = read.Integer("feature id");
+      Eigen::Vector3d p_w;
+      for (int r = 0; r < 3; ++r) p_w(r) = read.Number("feature position");
+      if (!p.p_w.emplace(id, p_w).second) {
+        throw DataError(read.where() + ": feature " + std::to_string(id) + " given twice");
+      }
+    } else if (record == "obs") {
+      BundleAdjustmentObservation o;
+      o.frame_id = static_cast<int>(read.Integer("frame"));
+      o.observation.feature_id = read.Integer("feature id");
+      if (!p.T_w_c.count(o.frame_id) || !p.p_w.count(o.observation.feature_id)) {
+        throw DataError(read.where() + ": observation of an unknown pose " +
+                        std::to_string(o.frame_id) + " or feature " +
+                        std::to_string(o.observation.feature_id) + " (poses and features come first)");
+      }
+      for (int r = 0; r < 3; ++r) o.observation.z(r) = read.Number("measurement");
+      for (int r = 0; r < 3; ++r) {
+        for (int k = r; k < 3; ++k) o.observation.Q(r, k) = o.observation.Q(k, r) = read.Number("Q");
+      }
+      if (o.observation.Q.llt().info() != Eigen::Success) {
+        throw DataError(read.where() + ": Q is not positive definite");
+      }
+      p.observations.push_back(o);
+    } else {
+      throw DataError(read.where() + ": unknown record '" + record + "'");
+    }
+    read.End();
+  }
+  if (!header || !camera || p.T_w_c.empty()) {
+    throw DataError(path + ": incomplete bundle-adjustment problem (header, camera or poses missing)");
+  }
+  if (p.anchor_frame_id >= 0 && !p.T_w_c.count(p.anchor_frame_id)) {
+    throw DataError(path + ": anchor frame " + std::to_string(p.anchor_frame_id) + " has no pose");
+  }
+  return stored;
+}
+
+}  // namespace ieslam

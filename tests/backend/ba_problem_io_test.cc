@@ -1,0 +1,100 @@
+#include "backend/ba_problem_io.h"
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <random>
+
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+
+#include "ba_test_scene.h"
+#include "core/error.h"
+
+namespace ieslam {
+namespace {
+
+namespace fs = std::filesystem;
+
+class BaProblemIoTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() / ("ieslam_ba_problem_io_" + std::to_string(::getpid()));
+    fs::create_directories(dir_);
+    std::mt19937 rng(3);
+    const testing_ba::TestScene scene = testing_ba::MakeTestScene(5, 60, &rng);
+    stored_.problem = testing_ba::MakeTestProblem(scene, 0.05, 0.02, 0.05, true, &rng);
+    stored_.camera = scene.camera;
+    for (const auto& [frame, T] : stored_.problem.T_w_c) stored_.timestamps[frame] = 10.0 + frame / 30.0;
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  std::string Path(const char* name) const { return (dir_ / name).string(); }
+
+  // Writes the stored problem with `line` appended, and reads it back.
+  StoredBaProblem ReadWithExtraLine(const std::string& line) const {
+    WriteBaProblem(Path("p.txt"), stored_);
+    std::ofstream(Path("p.txt"), std::ios::app) << line << "\n";
+    return ReadBaProblem(Path("p.txt"));
+  }
+
+  fs::path dir_;
+  StoredBaProblem stored_;
+};
+
+TEST_F(BaProblemIoTest, RoundTripIsExactAndRefinesIdentically) {
+  WriteBaProblem(Path("p.txt"), stored_);
+  const StoredBaProblem back = ReadBaProblem(Path("p.txt"));
+  ASSERT_EQ(back.problem.T_w_c.size(), stored_.problem.T_w_c.size());
+  for (const auto& [frame, T] : stored_.problem.T_w_c) {
+    EXPECT_EQ(back.problem.T_w_c.at(frame).matrix(), T.matrix()) << "pose " << frame;
+    EXPECT_EQ(back.timestamps.at(frame), stored_.timestamps.at(frame));
+  }
+  EXPECT_EQ(back.problem.p_w, stored_.problem.p_w);
+  ASSERT_EQ(back.problem.observations.size(), stored_.problem.observations.size());
+  for (size_t i = 0; i < back.problem.observations.size(); ++i) {
+    const auto& a = back.problem.observations[i];
+    const auto& b = stored_.problem.observations[i];
+    EXPECT_EQ(a.frame_id, b.frame_id);
+    EXPECT_EQ(a.observation.feature_id, b.observation.feature_id);
+    EXPECT_EQ(a.observation.z, b.observation.z);
+    EXPECT_EQ(a.observation.Q, b.observation.Q);
+  }
+  EXPECT_EQ(back.problem.AnchorFrameId(), stored_.problem.AnchorFrameId());
+  EXPECT_EQ(back.camera.fx, stored_.camera.fx);
+  EXPECT_EQ(back.camera.cy, stored_.camera.cy);
+  const BundleAdjustmentResult a = SolveBundleAdjustment(stored_.problem, stored_.camera, {});
+  const BundleAdjustmentResult b = SolveBundleAdjustment(back.problem, back.camera, {});
+  EXPECT_EQ(a.final_cost, b.final_cost);
+  for (const auto& [frame, T] : a.T_w_c) EXPECT_EQ(b.T_w_c.at(frame).matrix(), T.matrix());
+}
+
+TEST_F(BaProblemIoTest, BadFilesNameTheFileAndLine) {
+  auto expect_error = [&](const std::string& line, const std::string& part) {
+    try {
+      ReadWithExtraLine(line);
+      ADD_FAILURE() << "no error for: " << line;
+    } catch (const DataError& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find(Path("p.txt") + ":"), std::string::npos) << what;
+      EXPECT_NE(what.find(part), std::string::npos) << what;
+    }
+  };
+  expect_error("feature 7 1 2 nan", "not finite");
+  expect_error("feature 7 1 2", "missing");
+  const std::string frame = std::to_string(stored_.problem.T_w_c.begin()->first);
+  const std::string id = std::to_string(stored_.problem.p_w.begin()->first);
+  expect_error("obs 99999 " + id + " 300 200 1.5 1 0 0 1 0 0.0001", "unknown pose 99999");
+  expect_error("obs " + frame + " " + id + " 300 200 1.5 1 0 0 -1 0 0.0001", "positive definite");
+  expect_error("pose " + frame + " 1 1 0 0 0 1 0 0 0 1 0 0 0", "given twice");
+  expect_error("pose 77 1 2 0 0 0 1 0 0 0 1 0 0 0", "no rotation matrix");
+  expect_error("landmark 3 1 2 3", "unknown record 'landmark'");
+  expect_error("feature 7 1 2 3 4", "unexpected value '4'");
+  EXPECT_THROW(ReadBaProblem(Path("missing.txt")), DataError);
+  std::ofstream(Path("empty.txt")) << "# nothing\n";
+  EXPECT_THROW(ReadBaProblem(Path("empty.txt")), DataError);
+}
+
+}  // namespace
+}  // namespace ieslam
