@@ -33,7 +33,7 @@ RefinementOutcome RefineToFiles(const StoredBaProblem& stored, const SlamEstimat
   WriteTumTrajectory(JoinPath(out, "refined.tum"), trajectory, "ieslam bundle-adjusted keyframes");
   if (!gt_path.empty()) outcome.ate_refined_m = AteOfFiles(gt_path, JoinPath(out, "refined.tum"));
   outcome.comparison = ComparisonToJson(
-      CompareFilterToSmoother(filter_estimate, SmootherEstimate(refined)), false);
+      CompareFilterToSmoother(filter_estimate, SmootherEstimate(refined)), true);
   outcome.comparison.Set("ba", Json::Object()
                                    .Set("initial_cost", refined.initial_cost)
                                    .Set("final_cost", refined.final_cost)

@@ -7,6 +7,7 @@
 
 #include "apps/app_util.h"
 #include "apps/batch_refinement.h"
+#include "apps/run_figures.h"
 #include "backend/evaluation.h"
 #include "backend/filter_smoother_comparison.h"
 #include "core/error.h"
@@ -139,8 +140,8 @@ RunSummary RunPipeline(const RunOptions& options, const std::function<bool()>& s
   // The bundle-adjustment problem (the selected poses and features as the filter estimates
   // them, with the observations and Q it used), written so that `ieslam refine` can refine
   // this run again later; with --refine, refined now.
-  Json comparison;
-  double ba_seconds = 0.0;
+  Json comparison, pose_sigmas;
+  double ba_seconds = 0.0, covariance_seconds = 0.0;
   if (options.refine && !selection.chained_T_w_c.empty()) {
     throw ConfigError("--refine needs a filter: not available with --selector deadreckoning");
   }
@@ -152,11 +153,16 @@ RunSummary RunPipeline(const RunOptions& options, const std::function<bool()>& s
       stored.timestamps[frame] = dataset->info(frame).timestamp;
     }
     WriteBaProblem(JoinPath(out, "ba_problem.txt"), stored);
+    WriteInformationBlocks(filter, JoinPath(out, "information_blocks.txt"));
+    const auto covariance_start = std::chrono::steady_clock::now();
+    const SlamEstimate estimate = FilterEstimate(filter);
+    covariance_seconds = SecondsSince(covariance_start);
+    pose_sigmas = PoseSigmasToJson(estimate, stored.timestamps);
     if (options.refine) {
       BundleAdjustmentOptions ba = options.ba;
       if (options.threads > 0) ba.num_threads = options.threads;
       const RefinementOutcome refined =
-          RefineToFiles(stored, FilterEstimate(filter), ba, out,
+          RefineToFiles(stored, estimate, ba, out,
                         has_gt ? JoinPath(out, "groundtruth.tum") : std::string());
       ba_seconds = refined.seconds;
       summary.ate_refined_m = refined.ate_refined_m;
@@ -203,12 +209,14 @@ RunSummary RunPipeline(const RunOptions& options, const std::function<bool()>& s
       .Set("selection", selection.seconds_selection - t.total() > 0 ? selection.seconds_selection - t.total() : 0.0)
       .Set("filter", selection.seconds_filter)
       .Set("load", t.load_s);
+  report["seconds"].Set("covariance", covariance_seconds);
   if (options.refine) report["seconds"].Set("ba", ba_seconds);
   if (has_gt) {
     report["ate_rmse_m"].Set("keyframes", summary.ate_keyframes_m).Set("trajectory", summary.ate_trajectory_m);
     if (options.refine) report["ate_rmse_m"].Set("refined", summary.ate_refined_m);
   }
   if (options.refine) report.Set("filter_vs_smoother", comparison);
+  if (pose_sigmas.is_array()) report.Set("keyframe_sigmas", pose_sigmas);
   Json decisions = Json::Array();
   for (const SelectionDecision& d : selection.decisions) {
     decisions.Push(Json::Object()

@@ -6,6 +6,12 @@ Usage: scripts/plot.py OUT
 run:       trajectory_top.png    top view of the trajectory against ground truth, coloured by
                                  error after Horn alignment (as the ATE is computed)
            selected_frames.png   which frames the selector added over the sequence (paper Fig. 7)
+           information_sparsity.png  nonzero blocks of the final information matrix (Fig. 8)
+           keyframe_sigma.png    final position / heading uncertainty of every keyframe over the
+                                 sequence, selected frames marked (Fig. 12)
+           keyframe_errors.png   per-axis keyframe error against ground truth (aligned at the
+                                 first keyframe, as the filter anchors it) with +-2 sigma (Figs. 3-4)
+           eif_minus_ba.png      with --refine: per-keyframe filter - bundle adjustment difference
 simulate:  table.png             frames used, time and state dimension per selector (Table I)
 Runs with Debian's /usr/bin/python3 and python3-matplotlib (scripts/install_deps.sh installs it).
 """
@@ -106,6 +112,131 @@ def plot_run(out, report):
     ax.set_title("%d of %d frames selected (%s selector)" % (
         len(selected), total, report["options"]["selector"]["kind"]))
     save(fig, out, "selected_frames.png")
+    plot_information(out)
+    plot_keyframe_uncertainty(out, report)
+    plot_eif_minus_ba(out, report)
+
+
+def quat_to_matrix(q):
+    x, y, z, w = q / np.linalg.norm(q)
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+
+
+def euler_zyx(r):
+    """(alpha, beta, gamma) with R = Rz(alpha) Ry(beta) Rx(gamma), as core/pose.h."""
+    beta = np.arctan2(-r[2, 0], np.hypot(r[0, 0], r[1, 0]))
+    return np.array([np.arctan2(r[1, 0], r[0, 0]), beta, np.arctan2(r[2, 1], r[2, 2])])
+
+
+def plot_information(out):
+    path = os.path.join(out, "information_blocks.txt")
+    if not os.path.exists(path):
+        return
+    kinds, pairs = "", []
+    with open(path) as f:
+        for line in f:
+            if line.startswith("blocks "):
+                kinds = line.split()[1]
+            elif line.strip() and not line.startswith("#"):
+                pairs.append([int(v) for v in line.split()])
+    n = len(kinds)
+    pairs = np.array(pairs, dtype=int).reshape(-1, 2)
+    poses = np.array([k for k, c in enumerate(kinds) if c == "P"])
+    fig, ax = plt.subplots(figsize=(6.5, 6.5))
+    ms = max(0.05, min(2.0, 300.0 / max(n, 1)))
+    ax.plot(pairs[:, 1], pairs[:, 0], ",", ms=ms, color="C0")
+    ax.plot(pairs[:, 0], pairs[:, 1], ",", ms=ms, color="C0")
+    ax.plot(np.arange(n), np.arange(n), ",", color="C0")
+    ax.plot(poses, poses, "s", ms=2, color="red", label="pose blocks")
+    ax.set_xlim(0, n)
+    ax.set_ylim(n, 0)
+    ax.set_aspect("equal")
+    ax.set_xlabel("state block (poses and features, in the order added)")
+    ax.legend(loc="upper right", fontsize=8)
+    fill = (2 * len(pairs) + n) / float(max(n, 1) ** 2) * 100
+    ax.set_title("Final information matrix: %d blocks (%d poses), %.2f%% of blocks nonzero" % (
+        n, len(poses), fill))
+    save(fig, out, "information_sparsity.png")
+
+
+def plot_keyframe_uncertainty(out, report):
+    sigmas = report.get("keyframe_sigmas", [])
+    if not sigmas:
+        return
+    frames = np.array([s["frame"] for s in sigmas])
+    stamps = np.array([s["timestamp"] for s in sigmas])
+    sig = np.array([s["sigma"] for s in sigmas])
+    fig, ax = plt.subplots(2, 1, figsize=(9, 4.5), sharex=True)
+    ax[0].plot(frames, 100 * np.linalg.norm(sig[:, :3], axis=1), ".-", lw=0.8)
+    ax[0].set_ylabel("position σ (cm)")
+    ax[1].plot(frames, np.degrees(np.linalg.norm(sig[:, 3:], axis=1)), ".-", lw=0.8, color="C1")
+    ax[1].set_ylabel("orientation σ (deg)")
+    for a in ax:
+        a.vlines(frames, 0, 0.04, transform=a.get_xaxis_transform(), lw=0.6, color="k")
+    ax[1].set_xlabel("frame (ticks: selected frames)")
+    fig.suptitle("Final uncertainty of each keyframe (paper Fig. 12)")
+    save(fig, out, "keyframe_sigma.png")
+
+    gt_path = os.path.join(out, "groundtruth.tum")
+    if not os.path.exists(gt_path):
+        return
+    keys, gt = read_tum(os.path.join(out, "keyframes.tum")), read_tum(gt_path)
+    by_stamp = {round(t, 6): i for i, t in enumerate(keys[:, 0])}
+    pairs = associate(keys, gt)
+    if len(pairs) < 2:
+        return
+    def pose(row):
+        t = np.eye(4)
+        t[:3, :3], t[:3, 3] = quat_to_matrix(row[4:8]), row[1:4]
+        return t
+    i0, j0 = pairs[0]
+    align = pose(keys[i0]) @ np.linalg.inv(pose(gt[j0]))
+    gt_of = dict(pairs)
+    err, bound, at = [], [], []
+    for k, (stamp, s) in enumerate(zip(stamps, sig)):
+        i = by_stamp.get(round(stamp, 6))
+        if i is None or i not in gt_of:
+            continue
+        e, g = pose(keys[i]), align @ pose(gt[gt_of[i]])
+        d_angles = (euler_zyx(e[:3, :3]) - euler_zyx(g[:3, :3]) + np.pi) % (2 * np.pi) - np.pi
+        err.append(np.concatenate([e[:3, 3] - g[:3, 3], d_angles]))
+        bound.append(2 * s)
+        at.append(frames[k])
+    err, bound = np.array(err), np.array(bound)
+    names = ["x (m)", "y (m)", "z (m)", "alpha (rad)", "beta (rad)", "gamma (rad)"]
+    fig, axes = plt.subplots(6, 1, figsize=(9, 10), sharex=True)
+    for k, a in enumerate(axes):
+        a.plot(at, err[:, k], lw=0.8, label="error")
+        a.plot(at, bound[:, k], "r--", lw=0.6, label="±2σ")
+        a.plot(at, -bound[:, k], "r--", lw=0.6)
+        a.set_ylabel(names[k], fontsize=8)
+    axes[0].legend(loc="upper right", fontsize=8)
+    axes[-1].set_xlabel("frame")
+    inside = np.mean(np.abs(err[1:]) <= bound[1:]) * 100 if len(err) > 1 else 100.0
+    fig.suptitle("Keyframe errors against ground truth (aligned at the first keyframe) with ±2σ: "
+                 "%.1f%% inside" % inside)
+    save(fig, out, "keyframe_errors.png")
+
+
+def plot_eif_minus_ba(out, report):
+    frames = report.get("filter_vs_smoother", {}).get("frames", [])
+    if not frames:
+        return
+    ids = np.array([f["frame_id"] for f in frames])
+    fig, ax = plt.subplots(3, 1, figsize=(9, 6), sharex=True)
+    ax[0].plot(ids, [100 * f["translation_m"] for f in frames], ".-", lw=0.8)
+    ax[0].set_ylabel("|Δt| (cm)")
+    ax[1].plot(ids, [f["rotation_deg"] for f in frames], ".-", lw=0.8, color="C1")
+    ax[1].set_ylabel("Δ rotation (deg)")
+    ax[2].plot(ids, [f["mahalanobis"] for f in frames], ".-", lw=0.8, color="C2")
+    ax[2].set_ylabel("Mahalanobis")
+    ax[2].set_xlabel("frame")
+    fs = report["filter_vs_smoother"]
+    fig.suptitle("Filter − bundle adjustment per keyframe: RMS %.2f cm, %.2f°" % (
+        100 * fs["translation_m"]["rmse"], fs["rotation_deg"]["rmse"]))
+    save(fig, out, "eif_minus_ba.png")
 
 
 def plot_simulate(out, report):
