@@ -263,6 +263,9 @@ TEST(ShippedCalibration, SevenScenesHasTwoCameras) {
   EXPECT_DOUBLE_EQ(rig.colour.fy, 525.0);
   EXPECT_DOUBLE_EQ(rig.range.camera.fx, 585.0);
   EXPECT_DOUBLE_EQ(rig.range.camera.fy, 585.0);
+  // The colour lens's barrel distortion (measured by self-calibration, see the file).
+  EXPECT_DOUBLE_EQ(rig.colour.distortion[0], -0.04);
+  EXPECT_EQ(rig.range.camera.distortion, (std::array<double, 5>{0.0, 0.0, 0.0, 0.0, 0.0}));
   for (const PinholeCamera* c : {&rig.colour, &rig.range.camera}) {
     EXPECT_EQ(c->width, 640);
     EXPECT_EQ(c->height, 480);
