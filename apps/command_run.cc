@@ -31,7 +31,8 @@ int RunCommand(const CommandArgs& args) {
       {"seed", "S", "seed of RANSAC and FLANN (default 1)"},
       {"threads", "N", "1: deterministic single-thread mode (default: all cores)"},
       {"config", "FILE", "YAML with the options of every stage"},
-      {"quiet", "", "no progress output"}};
+      {"quiet", "", "no progress output"},
+      {"verbose", "", "also log every selector decision (candidates, gains, frames added)"}};
   specs.insert(specs.end(), more.begin(), more.end());
   const Flags flags(args, specs);
   if (flags.help()) {
@@ -56,6 +57,8 @@ int RunCommand(const CommandArgs& args) {
   options.seed = static_cast<uint32_t>(flags.GetInt("seed", 1, 0, 2000000000));
   options.threads = flags.GetInt("threads", 0, 0, 256);
   options.quiet = flags.Has("quiet");
+  options.verbose = flags.Has("verbose");
+  if (options.quiet && options.verbose) throw ConfigError("--quiet and --verbose exclude each other");
   options.refine = flags.Has("refine");
   std::signal(SIGINT, OnInterrupt);
   const RunSummary summary = RunPipeline(options, [] { return g_interrupted.load(); });

@@ -20,6 +20,22 @@ double SecondsSince(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
+// One log line per selector decision, for --verbose.
+std::string DescribeDecision(const SelectionDecision& d) {
+  std::string line = "run: " + d.reason + ": candidates";
+  char number[32];
+  for (size_t k = 0; k < d.candidates.size(); ++k) {
+    line += (k == 0 ? " " : ",") + std::to_string(d.candidates[k]);
+    if (k < d.gains.size()) {
+      std::snprintf(number, sizeof(number), " (gain %.1f, map %.1f)", d.gains[k], d.map_gains[k]);
+      line += number;
+    }
+  }
+  line += " -> added";
+  for (int frame : d.added) line += " " + std::to_string(frame);
+  return line;
+}
+
 }  // namespace
 
 bool RunOptions::Check(std::string* why) const {
@@ -94,7 +110,10 @@ RunSummary RunPipeline(const RunOptions& options, const std::function<bool()>& s
       &source, &filter, [&progress](int done, int selected) {
         progress.Update(done, std::to_string(selected) + " selected");
       },
-      stop);
+      stop,
+      [&options](const SelectionDecision& d) {
+        if (options.verbose) std::fprintf(stderr, "%s\n", DescribeDecision(d).c_str());
+      });
   progress.Finish();
 
   // Trajectories.

@@ -29,6 +29,7 @@ struct RunOptions {
   uint32_t seed = 1;
   int threads = 0;  // 0: OpenCV's default; 1: the deterministic single-thread mode
   bool quiet = false;
+  bool verbose = false;  // one log line per selector decision on stderr
   bool write_map = true;
 
   bool Check(std::string* why) const;

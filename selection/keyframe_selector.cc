@@ -107,7 +107,7 @@ class Run {
     result_->selected.push_back(frame);
     result_->observations[frame] = c.observations;
     result_->frames[frame].selected = result_->frames[frame].placed = true;
-    result_->decisions.push_back(Added(frame, "first"));
+    Record(Added(frame, "first"));
     last_base_ = frame;
   }
 
@@ -119,7 +119,7 @@ class Run {
       if (result_->frames[d].selected) continue;
       const CandidateFrame c = Prepare(d);
       if (Usable(c) && Add(c)) {
-        result_->decisions.push_back(Added(d, "recovery"));
+        Record(Added(d, "recovery"));
         return true;
       }
     }
@@ -254,7 +254,7 @@ class Run {
         if (Add(buffer[best])) decision.added.push_back(buffer[best].frame);
         next = buffer[best].frame + 1;
       }
-      result_->decisions.push_back(std::move(decision));
+      Record(std::move(decision));
       Progress(next);
     }
   }
@@ -267,7 +267,7 @@ class Run {
       if (f % step != 0) continue;
       const CandidateFrame c = Prepare(f);
       if (Usable(c) && Add(c)) {
-        result_->decisions.push_back(Added(f, step == 1 ? "all" : "interval"));
+        Record(Added(f, step == 1 ? "all" : "interval"));
       } else if (Recover(f)) {
         Retry(f);  // a frame that still does not register keeps its reason in `frames`
       }
@@ -283,7 +283,12 @@ class Run {
 
   void Retry(int f) {
     const CandidateFrame c = Prepare(f);
-    if (Usable(c) && Add(c)) result_->decisions.push_back(Added(f, "recovered"));
+    if (Usable(c) && Add(c)) Record(Added(f, "recovered"));
+  }
+
+  void Record(SelectionDecision decision) {
+    result_->decisions.push_back(std::move(decision));
+    if (on_decision_) on_decision_(result_->decisions.back());
   }
 
   void Progress(int done) {
@@ -300,6 +305,7 @@ class Run {
 
   std::function<void(int, int)> progress_;
   std::function<bool()> stop_;
+  std::function<void(const SelectionDecision&)> on_decision_;
   int last_base_ = 0;
 
  private:
@@ -355,7 +361,8 @@ KeyframeSelector::KeyframeSelector(const SelectorOptions& options) : options_(op
 
 SelectionResult KeyframeSelector::Run(FrameSource* source, InformationFilter* filter,
                                       const std::function<void(int, int)>& progress,
-                                      const std::function<bool()>& stop) const {
+                                      const std::function<bool()>& stop,
+                                      const std::function<void(const SelectionDecision&)>& on_decision) const {
   SelectionResult result;
   const int n = source->size();
   result.frames_processed = n;
@@ -403,6 +410,7 @@ SelectionResult KeyframeSelector::Run(FrameSource* source, InformationFilter* fi
   class Run run(options_, source, filter, &result);
   run.progress_ = progress;
   run.stop_ = stop;
+  run.on_decision_ = on_decision;
   run.AddFirst(0);
   switch (options_.kind) {
     case SelectorKind::kInfo: run.RunInfo(); break;

@@ -105,10 +105,12 @@ class KeyframeSelector {
   // Runs over every frame of `source`, adding the selected ones to `filter` (unused by
   // dead reckoning). `progress`, if set, is called with (frames done, frames selected).
   // `stop`, if set, is polled between decisions; when it returns true the run ends there
-  // (result.interrupted), with everything decided so far intact.
+  // (result.interrupted), with everything decided so far intact. `on_decision`, if set, sees
+  // each decision as it is made (not for dead reckoning, which decides nothing).
   SelectionResult Run(FrameSource* source, InformationFilter* filter,
                       const std::function<void(int, int)>& progress = nullptr,
-                      const std::function<bool()>& stop = nullptr) const;
+                      const std::function<bool()>& stop = nullptr,
+                      const std::function<void(const SelectionDecision&)>& on_decision = nullptr) const;
 
   // The pose of every placed frame: the filter's estimate for selected frames, the base
   // frame's estimate composed with the registration for the others (dead reckoning: the

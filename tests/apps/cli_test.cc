@@ -28,7 +28,7 @@ Result RunIeslam(const std::string& args) {
 TEST(CliTest, HelpListsEverySubcommandOfTheInterface) {
   const Result result = RunIeslam("--help");
   EXPECT_EQ(result.exit_code, 0);
-  for (const char* command : {"run", "evaluate", "simulate", "synth", "register"}) {
+  for (const char* command : {"run", "evaluate", "simulate", "synth", "register", "refine"}) {
     EXPECT_NE(result.output.find(std::string("  ") + command + " "), std::string::npos) << command;
   }
 }
@@ -38,6 +38,12 @@ TEST(CliTest, NoArgumentsOrAnUnknownCommandIsAUsageError) {
   const Result result = RunIeslam("frobnicate");
   EXPECT_EQ(result.exit_code, 2);
   EXPECT_NE(result.output.find("frobnicate"), std::string::npos);
+}
+
+TEST(CliTest, QuietAndVerboseTogetherAreAUsageErrorNamingBoth) {
+  const Result result = RunIeslam("run --dataset /nonexistent --output /tmp/x --quiet --verbose");
+  EXPECT_EQ(result.exit_code, 2);
+  EXPECT_NE(result.output.find("--quiet and --verbose"), std::string::npos) << result.output;
 }
 
 TEST(CliTest, VersionPrintsTheProjectVersion) {
