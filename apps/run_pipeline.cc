@@ -1,7 +1,9 @@
 #include "apps/run_pipeline.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <thread>
 
 #include <opencv2/core.hpp>
 
@@ -24,6 +26,15 @@ double AteOfFiles(const std::string& gt_path, const std::string& est_path) {
   const Trajectory gt = ReadTumTrajectoryForEvaluation(gt_path);
   const Trajectory est = ReadTumTrajectoryForEvaluation(est_path);
   return ComputeAte(gt, est, EvaluationOptions(), gt_path, est_path).translation.rmse;
+}
+
+// Threads that load and process frames ahead of the selector: none in the deterministic
+// single-thread mode, else all but the selector's own (at least one; more than a few only
+// queue up behind the selector).
+int PrefetchWorkers(int threads) {
+  if (threads == 1) return 0;
+  const int cores = threads > 0 ? threads : static_cast<int>(std::thread::hardware_concurrency());
+  return std::clamp(cores - 1, 1, 3);
 }
 
 }  // namespace
@@ -87,6 +98,7 @@ RunSummary RunPipeline(const RunOptions& options, const std::function<bool()>& s
   RgbdSourceOptions source_options = options.source;
   source_options.frontend.registration.seed = options.seed;
   source_options.database.seed = options.seed;
+  source_options.prefetch.workers = PrefetchWorkers(options.threads);
   RgbdFrameSource source(*dataset, source_options);
   InformationFilter filter(options.filter, dataset->rig().colour);
   Progress progress("run", dataset->size(), options.quiet);
@@ -206,9 +218,16 @@ RunSummary RunPipeline(const RunOptions& options, const std::function<bool()>& s
   report["seconds"]
       .Set("total", SecondsSince(start))
       .Set("frontend", t.total())
-      .Set("selection", selection.seconds_selection - t.total() > 0 ? selection.seconds_selection - t.total() : 0.0)
+      .Set("selection", std::max(0.0, selection.seconds_selection - t.caller()))
       .Set("filter", selection.seconds_filter)
       .Set("load", t.load_s);
+  report["seconds"]["frontend_stages"]
+      .Set("load", t.load_s)
+      .Set("extract", t.extract_s)
+      .Set("lift", t.lift_s)
+      .Set("match", t.match_s)
+      .Set("ransac", t.ransac_s)
+      .Set("fetch_wall", t.fetch_wall_s);
   if (options.refine) report["seconds"].Set("ba", ba_seconds);
   if (has_gt) {
     report["ate_rmse_m"].Set("keyframes", summary.ate_keyframes_m).Set("trajectory", summary.ate_trajectory_m);
