@@ -1,7 +1,9 @@
 #include "apps/run_pipeline.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <thread>
 
 #include <opencv2/core.hpp>
 
@@ -34,6 +36,15 @@ std::string DescribeDecision(const SelectionDecision& d) {
   line += " -> added";
   for (int frame : d.added) line += " " + std::to_string(frame);
   return line;
+}
+
+// Threads that load and process frames ahead of the selector: none in the deterministic
+// single-thread mode, else all but the selector's own (at least one; more than a few only
+// queue up behind the selector).
+int PrefetchWorkers(int threads) {
+  if (threads == 1) return 0;
+  const int cores = threads > 0 ? threads : static_cast<int>(std::thread::hardware_concurrency());
+  return std::clamp(cores - 1, 1, 3);
 }
 
 }  // namespace
@@ -103,6 +114,7 @@ RunSummary RunPipeline(const RunOptions& options, const std::function<bool()>& s
   RgbdSourceOptions source_options = options.source;
   source_options.frontend.registration.seed = options.seed;
   source_options.database.seed = options.seed;
+  source_options.prefetch.workers = PrefetchWorkers(options.threads);
   RgbdFrameSource source(*dataset, source_options);
   InformationFilter filter(options.filter, dataset->rig().colour);
   Progress progress("run", dataset->size(), options.quiet);
@@ -225,10 +237,17 @@ RunSummary RunPipeline(const RunOptions& options, const std::function<bool()>& s
   report["seconds"]
       .Set("total", SecondsSince(start))
       .Set("frontend", t.total())
-      .Set("selection", selection.seconds_selection - t.total() > 0 ? selection.seconds_selection - t.total() : 0.0)
+      .Set("selection", std::max(0.0, selection.seconds_selection - t.caller()))
       .Set("filter", selection.seconds_filter)
       .Set("load", t.load_s);
   report["seconds"].Set("covariance", covariance_seconds);
+  report["seconds"]["frontend_stages"]
+      .Set("load", t.load_s)
+      .Set("extract", t.extract_s)
+      .Set("lift", t.lift_s)
+      .Set("match", t.match_s)
+      .Set("ransac", t.ransac_s)
+      .Set("fetch_wall", t.fetch_wall_s);
   if (options.refine) report["seconds"].Set("ba", ba_seconds);
   if (has_gt) {
     report["ate_rmse_m"].Set("keyframes", summary.ate_keyframes_m).Set("trajectory", summary.ate_trajectory_m);

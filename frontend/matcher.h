@@ -35,7 +35,7 @@ std::vector<DescriptorMatch> MatchDescriptors(const cv::Mat& query, const cv::Ma
                                               const MatchOptions& options);
 
 struct DatabaseOptions {
-  int trees = 4;         // randomised kd-trees
+  int trees = 1;         // randomised kd-trees (each costs a build; see matcher.cc)
   int checks = 64;       // leaves visited per query
   int neighbours = 6;    // k nearest descriptors looked at per query descriptor
   double ratio = 0.8;    // a neighbour votes when closer than ratio x the k-th distance
@@ -67,6 +67,7 @@ class BaseFrameDatabase {
   struct Index;
   // Rows added since the last build that are searched exactly before a rebuild is due.
   static constexpr int kMinTailRows = 2048;
+  static constexpr int kTailFraction = 16;
   DatabaseOptions options_;
   std::unique_ptr<Index> index_;
   std::vector<int> frame_ids_;        // per added frame

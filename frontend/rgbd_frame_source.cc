@@ -29,7 +29,7 @@ bool RgbdSourceOptions::Check(std::string* why) const {
     if (why != nullptr) *why = message;
     return false;
   };
-  if (!frontend.Check(why) || !database.Check(why)) return false;
+  if (!frontend.Check(why) || !database.Check(why) || !prefetch.Check(why)) return false;
   if (max_base_candidates < 1) return fail("max_base_candidates must be >= 1");
   if (max_new_features_per_frame < 0) return fail("max_new_features_per_frame must be >= 0");
   if (min_inliers_secondary < frontend.registration.min_inliers) {
@@ -42,7 +42,8 @@ RgbdFrameSource::RgbdFrameSource(const Dataset& dataset, const RgbdSourceOptions
     : dataset_(dataset),
       options_(options),
       processor_(dataset.rig(), options.frontend),
-      database_(options.database) {
+      database_(options.database),
+      prefetcher_(dataset, processor_, options.prefetch) {
   std::string why;
   if (!options.Check(&why)) throw ConfigError(why);
 }
@@ -53,9 +54,10 @@ const ProcessedFrame& RgbdFrameSource::Processed(int frame) {
   auto it = processed_.find(frame);
   if (it != processed_.end()) return it->second;
   const auto start = std::chrono::steady_clock::now();
-  const Frame loaded = dataset_.Load(frame);  // the images are released when this returns
-  timings_.load_s += SecondsSince(start);
-  ProcessedFrame processed = processor_.Process(loaded);
+  PrefetchedFrame fetched = prefetcher_.Take(frame);  // the images are already released
+  timings_.fetch_wall_s += SecondsSince(start);
+  timings_.load_s += fetched.seconds_load;
+  ProcessedFrame& processed = fetched.processed;
   timings_.extract_s += processed.seconds_extract;
   timings_.lift_s += processed.seconds_lift;
   return processed_.emplace(frame, std::move(processed)).first->second;

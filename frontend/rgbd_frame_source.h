@@ -17,6 +17,7 @@
 
 #include "core/dataset.h"
 #include "core/frame_source.h"
+#include "frontend/frame_prefetcher.h"
 #include "frontend/frame_processor.h"
 
 namespace ieslam {
@@ -33,6 +34,8 @@ struct RgbdSourceOptions {
   // A base frame other than the best one adds its inliers' observations only when its own
   // registration has at least this many inliers (loop closures through a second view).
   int min_inliers_secondary = 15;
+  // Frames loaded and processed ahead on worker threads (0 workers: sequential).
+  PrefetchOptions prefetch;
 
   bool Check(std::string* why) const;
 };
@@ -44,7 +47,12 @@ struct SourceTimings {
   double match_s = 0.0;
   double ransac_s = 0.0;
   double load_s = 0.0;
+  // Wall time the caller's thread spent getting processed frames: all of load + extract +
+  // lift when sequential, only the waits when workers prefetch.
+  double fetch_wall_s = 0.0;
   double total() const { return extract_s + lift_s + match_s + ransac_s + load_s; }
+  // The front end's share of the caller's thread (what selection time must not include).
+  double caller() const { return fetch_wall_s + match_s + ransac_s; }
 };
 
 class RgbdFrameSource : public FrameSource {
@@ -71,6 +79,7 @@ class RgbdFrameSource : public FrameSource {
   RgbdSourceOptions options_;
   FrameProcessor processor_;
   BaseFrameDatabase database_;
+  FramePrefetcher prefetcher_;
   std::map<int, ProcessedFrame> processed_;
   // A frame is prepared again in each buffer that holds it: its registrations to base
   // frames do not change, so they are computed once. Entries of frames that became base

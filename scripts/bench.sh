@@ -4,33 +4,103 @@
 # OUT/bench.json) with the machine's description. Medians of repeated runs; this machine is
 # shared and noisy, so compare ratios rather than absolute times.
 #
-# Usage: scripts/bench.sh [OUT]   (default: bench_output/). REPEAT=3 sets the end-to-end repeats.
+# Usage: scripts/bench.sh [--quick] [OUT]      (default OUT: bench_output/)
+#   --quick   one repetition, short micro-benchmarks, `ieslam run` on the first 150 frames,
+#             no step-20 registration. A full run with REPEAT=1 took 15 min on this shared
+#             machine at load average ~10 (the two 500-frame runs and the simulation dominate).
+# Environment: REPEAT (repetitions of the micro-benchmarks, register and run: default 3, 1
+#   with --quick), SIM_REPEAT (default 1), BUILD_DIR (default build/),
+#   JOBS (parallel compile jobs if a build is needed, default 1: the machine is shared).
+#
+# End to end:
+#   register  `ieslam register --step 5` (and 20) with OpenCV on one thread: issue 4's
+#             accuracy and front-end ms per frame
+#   run       `ieslam run` on 7scenes-dev, once --threads 1 (sequential) and once with the
+#             default threads (frames prefetched on a worker), each under /usr/bin/time -v
+#             for the peak resident memory
+#   simulate  `ieslam simulate --buffers 3` (once; SIM_REPEAT for more): the Table I time
+#             and dimension ratios
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
-out=${1:-$root/bench_output}
+quick=0
+out=$root/bench_output
+for arg in "$@"; do
+  case "$arg" in
+    --quick) quick=1 ;;
+    -h|--help) sed -n '2,20p' "$0"; exit 0 ;;
+    -*) echo "bench.sh: unknown option $arg" >&2; exit 2 ;;
+    *) out=$arg ;;
+  esac
+done
 build_dir=${BUILD_DIR:-$root/build}
-repeat=${REPEAT:-3}
 data=$root/../shared/data
+if [ "$quick" = 1 ]; then
+  repeat=${REPEAT:-1}
+  # The all-frames filter benchmark alone takes a minute or more.
+  micro_args=(--benchmark_min_time=0.05 --benchmark_filter=-PaperAllFrames)
+  run_args=(--last 149)
+else
+  repeat=${REPEAT:-3}
+  micro_args=()
+  run_args=()
+fi
+if [ ! -d "$data/7scenes-dev" ]; then
+  echo "bench.sh: $data/7scenes-dev not found (see ../shared/data/README.md)" >&2
+  exit 1
+fi
 
 "$root/scripts/install_deps.sh"
-BUILD_DIR=$build_dir "$root/scripts/build.sh" -DIESLAM_BUILD_BENCHMARKS=ON
+# Release build of what is measured; make rebuilds only what changed.
+if ! grep -qs '^CMAKE_BUILD_TYPE:STRING=Release$' "$build_dir/CMakeCache.txt" ||
+   ! grep -qs '^IESLAM_BUILD_BENCHMARKS:BOOL=ON$' "$build_dir/CMakeCache.txt"; then
+  cmake -S "$root" -B "$build_dir" -DCMAKE_BUILD_TYPE=Release -DIESLAM_BUILD_BENCHMARKS=ON >/dev/null
+fi
+cmake --build "$build_dir" -j "${JOBS:-1}" --target ieslam ieslam_bench >/dev/null
 ieslam=$build_dir/apps/ieslam
 mkdir -p "$out"
+rm -f "$out"/*.json "$out"/*.txt
+started=$(date +%s)
+uptime > "$out/load_before.txt"
 
-echo "== micro-benchmarks" >&2
+echo "== micro-benchmarks ($repeat repetitions)" >&2
 "$build_dir/tests/bench/ieslam_bench" --benchmark_repetitions="$repeat" \
-  --benchmark_report_aggregates_only=true --benchmark_format=json > "$out/micro.json"
+  --benchmark_report_aggregates_only=true --benchmark_format=json "${micro_args[@]}" \
+  > "$out/micro.json"
 
-echo "== end to end" >&2
-: > "$out/e2e.txt"
+echo "== register" >&2
 for r in $(seq "$repeat"); do
-  "$ieslam" register --dataset "$data/7scenes-dev" --step 5 --output "$out/register5" --quiet \
-    | sed "s/^/run$r /" >> "$out/e2e.txt"
-  /usr/bin/time -v "$ieslam" run --dataset "$data/7scenes-dev" --output "$out/run" --threads 1 \
-    --quiet 2> "$out/run_time_$r.txt" > /dev/null
-  cp "$out/run/report.json" "$out/run_report_$r.json"
+  OPENCV_FOR_THREADS_NUM=1 "$ieslam" register --dataset "$data/7scenes-dev" --step 5 \
+    --output "$out/register5" --quiet > "$out/register5_$r.txt"
+done
+if [ "$quick" = 0 ]; then
+  OPENCV_FOR_THREADS_NUM=1 "$ieslam" register --dataset "$data/7scenes-dev" --step 20 \
+    --output "$out/register20" --quiet > "$out/register20_1.txt"
+fi
+
+echo "== run (sequential and pipelined)" >&2
+for r in $(seq "$repeat"); do
+  for mode in sequential pipelined; do
+    threads=()
+    [ "$mode" = sequential ] && threads=(--threads 1)
+    /usr/bin/time -v "$ieslam" run --dataset "$data/7scenes-dev" --output "$out/run_$mode" \
+      "${threads[@]}" "${run_args[@]}" --quiet 2> "$out/run_${mode}_time_$r.txt" > /dev/null
+    cp "$out/run_$mode/report.json" "$out/run_${mode}_report_$r.json"
+  done
+done
+if cmp -s "$out/run_sequential/trajectory.tum" "$out/run_pipelined/trajectory.tum"; then
+  echo same > "$out/run_trajectories_identical.txt"
+else
+  echo different > "$out/run_trajectories_identical.txt"
+fi
+
+# The all-frames EIF of the simulation takes minutes: once, unless SIM_REPEAT says more.
+echo "== simulate" >&2
+for r in $(seq "${SIM_REPEAT:-1}"); do
   "$ieslam" simulate --output "$out/simulate" --runs 1 --buffers 3 --quiet > /dev/null
   cp "$out/simulate/report.json" "$out/simulate_report_$r.json"
 done
 
-/usr/bin/python3 "$root/scripts/bench_table.py" "$out" "$repeat"
+uptime > "$out/load_after.txt"
+echo $(( $(date +%s) - started )) > "$out/bench_seconds.txt"
+git -C "$root" rev-parse --short HEAD > "$out/commit.txt" 2>/dev/null || echo unknown > "$out/commit.txt"
+/usr/bin/python3 "$root/scripts/bench_table.py" "$out" "$repeat" "$quick"

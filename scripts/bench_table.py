@@ -1,83 +1,220 @@
 #!/usr/bin/python3
-"""Assembles scripts/bench.sh's measurements into OUT/bench.md and OUT/bench.json."""
+"""Assembles scripts/bench.sh's measurements into OUT/bench.md and OUT/bench.json.
+
+Usage: bench_table.py OUT REPEAT QUICK
+Every number is the median over the REPEAT repetitions; each row says which target (issue 4:
+front end, issue 9: performance) it is checked against.
+"""
+import glob
 import json
 import os
 import platform
 import re
 import statistics
+import subprocess
 import sys
 
+FPS = 30.0  # 7-Scenes is 30 Hz
 
-def machine():
-    model = "unknown"
-    with open("/proc/cpuinfo") as f:
-        for line in f:
-            if line.startswith("model name"):
-                model = line.split(":", 1)[1].strip()
-                break
-    return {"cpu": model, "cores": os.cpu_count(), "kernel": platform.release()}
+
+def read(path):
+    with open(path) as f:
+        return f.read()
+
+
+def machine(out):
+    model, mem_kb = "unknown", 0
+    for line in read("/proc/cpuinfo").splitlines():
+        if line.startswith("model name"):
+            model = line.split(":", 1)[1].strip()
+            break
+    for line in read("/proc/meminfo").splitlines():
+        if line.startswith("MemTotal:"):
+            mem_kb = int(line.split()[1])
+    try:
+        opencv = subprocess.run(["pkg-config", "--modversion", "opencv4"], capture_output=True,
+                                text=True, check=False).stdout.strip() or "unknown"
+    except OSError:
+        opencv = "unknown"
+
+    def load(name):
+        path = os.path.join(out, name)
+        m = re.search(r"load average: ([\d.]+)", read(path)) if os.path.exists(path) else None
+        return float(m.group(1)) if m else None
+
+    def text(name):
+        path = os.path.join(out, name)
+        return read(path).strip() if os.path.exists(path) else None
+
+    return {"cpu": model, "cores": os.cpu_count(), "memory_gb": round(mem_kb / 2**20, 1),
+            "kernel": platform.release(), "opencv": opencv, "commit": text("commit.txt"),
+            "load_1min_before": load("load_before.txt"), "load_1min_after": load("load_after.txt"),
+            "bench_seconds": int(text("bench_seconds.txt") or 0)}
+
+
+def median(values):
+    values = [v for v in values if v is not None]
+    return statistics.median(values) if values else None
+
+
+def key_values(path):
+    values = {}
+    for line in read(path).splitlines():
+        parts = line.split()
+        if len(parts) == 2:
+            values[parts[0]] = float(parts[1])
+    return values
+
+
+def time_v(path):
+    """Wall seconds and peak RSS (MB) from /usr/bin/time -v."""
+    text = read(path)
+    wall = re.search(r"Elapsed \(wall clock\) time \(h:mm:ss or m:ss\): ([\d:.]+)", text).group(1)
+    seconds = 0.0
+    for part in wall.split(":"):
+        seconds = seconds * 60 + float(part)
+    rss = int(re.search(r"Maximum resident set size \(kbytes\): (\d+)", text).group(1)) / 1024
+    return seconds, rss
+
+
+def micro_rows(out):
+    rows = []
+    for b in json.load(open(os.path.join(out, "micro.json")))["benchmarks"]:
+        if b.get("run_type") == "aggregate" and b.get("aggregate_name") != "median":
+            continue
+        scale = {"ns": 1e-6, "us": 1e-3, "ms": 1.0, "s": 1e3}[b["time_unit"]]
+        counters = {k: v for k, v in b.items() if k not in (
+            "name", "run_name", "run_type", "repetitions", "threads", "aggregate_name",
+            "aggregate_unit", "iterations", "real_time", "cpu_time", "time_unit", "family_index",
+            "per_family_instance_index", "repetition_index")}
+        rows.append({"what": b["run_name"], "median_ms": b["real_time"] * scale,
+                     "cpu_ms": b["cpu_time"] * scale, "counters": counters})
+    return rows
+
+
+def run_mode(out, mode, repeat):
+    reports = [json.load(open(os.path.join(out, "run_%s_report_%d.json" % (mode, r))))
+               for r in range(1, repeat + 1)]
+    timed = [time_v(os.path.join(out, "run_%s_time_%d.txt" % (mode, r))) for r in range(1, repeat + 1)]
+    frames = reports[0]["frames_total"]
+    wall = median(t[0] for t in timed)
+    sec = {k: median(r["seconds"].get(k) for r in reports)
+           for k in ("total", "frontend", "selection", "filter", "load")}
+    estimator = sec["selection"] + sec["filter"]
+    return {
+        "frames": frames,
+        "wall_s": wall,
+        "realtime_factor": frames / FPS / wall,
+        "seconds": sec,
+        "estimator_realtime_factor": frames / FPS / estimator if estimator > 0 else None,
+        "peak_rss_mb": median(t[1] for t in timed),
+        "frames_selected": reports[0]["frames_selected"],
+        "ate_rmse_m": reports[0].get("ate_rmse_m"),
+    }
+
+
+def simulate(out):
+    sims = [json.load(open(p)) for p in sorted(glob.glob(os.path.join(out, "simulate_report_*.json")))]
+    all_rows = [s["table"][0] for s in sims]
+    info_rows = [s["table"][1] for s in sims]
+    return {
+        "all_seconds": median(r["seconds"] for r in all_rows),
+        "info3_seconds": median(r["seconds"] for r in info_rows),
+        "time_ratio": median(i["seconds"] / a["seconds"] for a, i in zip(all_rows, info_rows)),
+        "dim_ratio": median(i["state_dim"] / a["state_dim"] for a, i in zip(all_rows, info_rows)),
+        "frames_used_info3": median(r["frames_used"] for r in info_rows),
+        "frames_total": all_rows[0]["frames_total"],
+    }
+
+
+def fmt(value, digits=3):
+    if value is None:
+        return "–"
+    if isinstance(value, float):
+        return ("%%.%df" % digits) % value
+    return str(value)
 
 
 def main():
-    out, repeat = sys.argv[1], int(sys.argv[2])
-    rows = []
-    micro = json.load(open(os.path.join(out, "micro.json")))
-    for b in micro["benchmarks"]:
-        if b.get("aggregate_name") == "median":
-            rows.append({"what": b["run_name"], "median_ms": b["real_time"] if b["time_unit"] == "ms"
-                         else b["real_time"] / 1e6, "counters": {k: v for k, v in b.items()
-                         if k not in ("name", "run_name", "run_type", "repetitions", "threads",
-                                      "aggregate_name", "aggregate_unit", "iterations", "real_time",
-                                      "cpu_time", "time_unit", "family_index",
-                                      "per_family_instance_index", "repetition_index")}})
-    reg = {}
-    for line in open(os.path.join(out, "e2e.txt")):
-        _, key, value = line.split()
-        reg.setdefault(key, []).append(float(value))
-    e2e = {k: statistics.median(v) for k, v in reg.items()}
-    runs = [json.load(open(os.path.join(out, "run_report_%d.json" % r))) for r in range(1, repeat + 1)]
-    rss = []
-    for r in range(1, repeat + 1):
-        text = open(os.path.join(out, "run_time_%d.txt" % r)).read()
-        rss.append(int(re.search(r"Maximum resident set size \(kbytes\): (\d+)", text).group(1)) / 1024)
-    sims = [json.load(open(os.path.join(out, "simulate_report_%d.json" % r))) for r in range(1, repeat + 1)]
-    total = statistics.median(r["seconds"]["total"] for r in runs)
-    estimator = statistics.median(r["seconds"]["selection"] + r["seconds"]["filter"] for r in runs)
-    seq_seconds = runs[0]["frames_total"] / 30.0
-    sim_all = statistics.median(s["table"][0]["seconds"] for s in sims)
-    sim_info = statistics.median(s["table"][1]["seconds"] for s in sims)
+    out, repeat, quick = sys.argv[1], int(sys.argv[2]), len(sys.argv) > 3 and sys.argv[3] == "1"
+    micro = micro_rows(out)
+    by_name = {row["what"]: row for row in micro}
+    register5 = [key_values(p) for p in sorted(glob.glob(os.path.join(out, "register5_*.txt")))]
+    r5 = {k: median(r.get(k) for r in register5) for k in register5[0]} if register5 else {}
+    r20_path = os.path.join(out, "register20_1.txt")
+    r20 = key_values(r20_path) if os.path.exists(r20_path) else {}
+    seq = run_mode(out, "sequential", repeat)
+    pipe = run_mode(out, "pipelined", repeat)
+    sim = simulate(out)
+    same = read(os.path.join(out, "run_trajectories_identical.txt")).strip() == "same"
+    frontend = by_name.get("BM_FrontendPerFrame", {})
     summary = {
-        "machine": machine(),
-        "register_step5_ms_per_frame": e2e.get("register.ms_per_frame"),
-        "run_7scenes_seconds": total,
-        "run_7scenes_realtime_factor": seq_seconds / total,
-        "run_7scenes_estimator_realtime_factor": seq_seconds / estimator if estimator > 0 else None,
-        "run_7scenes_peak_rss_mb": statistics.median(rss),
-        "run_7scenes_frames_selected": runs[0]["frames_selected"],
-        "run_7scenes_ate_m": runs[0].get("ate_rmse_m"),
-        "simulate_all_seconds": sim_all,
-        "simulate_info3_seconds": sim_info,
-        "simulate_time_ratio_info3_over_all": sim_info / sim_all,
-        "micro": rows,
+        "machine": machine(out), "repetitions": repeat, "quick": quick,
+        "frontend_ms_per_frame": frontend.get("median_ms"),
+        "frontend_cpu_ms_per_frame": frontend.get("cpu_ms"),
+        "load_ms_per_frame": by_name.get("BM_LoadFrame", {}).get("median_ms"),
+        "register_step5": r5, "register_step20": r20,
+        "run_sequential": seq, "run_pipelined": pipe,
+        "pipelined_over_sequential_wall": pipe["wall_s"] / seq["wall_s"],
+        "pipelined_trajectory_identical": same,
+        "simulate": sim, "micro": micro,
     }
     with open(os.path.join(out, "bench.json"), "w") as f:
         json.dump(summary, f, indent=2)
+
+    m = summary["machine"]
     lines = ["# ieslam benchmarks", "",
-             "Machine: %s, %d cores. Medians of %d repetitions." % (summary["machine"]["cpu"],
-                                                                    summary["machine"]["cores"], repeat),
-             "", "| measurement | value |", "|---|---|"]
-    for key in ("register_step5_ms_per_frame", "run_7scenes_seconds", "run_7scenes_realtime_factor",
-                "run_7scenes_estimator_realtime_factor", "run_7scenes_peak_rss_mb",
-                "run_7scenes_frames_selected", "simulate_all_seconds", "simulate_info3_seconds",
-                "simulate_time_ratio_info3_over_all"):
-        value = summary[key]
-        lines.append("| %s | %s |" % (key, "%.3f" % value if isinstance(value, float) else value))
-    lines += ["", "| micro-benchmark | median ms | counters |", "|---|---|---|"]
-    for row in rows:
-        lines.append("| %s | %.3f | %s |" % (row["what"], row["median_ms"],
-                                              ", ".join("%s=%g" % kv for kv in row["counters"].items())))
+             "Machine: %s, %d cores, %.1f GB, Linux %s, OpenCV %s, commit %s. Load average %s "
+             "before, %s after (2 cores: above 2 means other work was running). Medians of %d "
+             "repetition(s)%s; the bench took %d s." % (
+                 m["cpu"], m["cores"], m["memory_gb"], m["kernel"], m["opencv"], m["commit"],
+                 fmt(m["load_1min_before"], 2), fmt(m["load_1min_after"], 2), repeat,
+                 ", quick mode: `ieslam run` on the first 150 frames" if quick else "",
+                 m["bench_seconds"]), "",
+             "| measurement | value | target |", "|---|---|---|"]
+
+    def row(name, value, target="", digits=3):
+        lines.append("| %s | %s | %s |" % (name, fmt(value, digits), target))
+
+    row("front end ms/frame, 1 thread (features + match previous + lift + RANSAC), wall",
+        summary["frontend_ms_per_frame"], "≤ 40 (issue 4)", 1)
+    row("front end ms/frame, 1 thread, CPU time", summary["frontend_cpu_ms_per_frame"], "", 1)
+    row("load + decode ms/frame (JPEG + 16-bit PNG + depth to metres)",
+        summary["load_ms_per_frame"], "", 1)
+    row("register --step 5: success", r5.get("register.success_rate"), "≥ 0.98")
+    row("register --step 5: median rotation error (deg)", r5.get("register.rot_err_median_deg"), "≤ 0.3")
+    row("register --step 5: median translation error (cm)",
+        r5["register.trans_err_median_m"] * 100 if r5 else None, "≤ 0.8")
+    row("register --step 5: ms_per_frame (1 OpenCV thread)", r5.get("register.ms_per_frame"), "≤ 40", 1)
+    row("register --step 20: success", r20.get("register.success_rate"), "≥ 0.90")
+    for name, mode in (("run --threads 1", seq), ("run, pipelined (default threads)", pipe)):
+        row("%s: wall s (%d frames = %.1f s of data)" % (name, mode["frames"], mode["frames"] / FPS),
+            mode["wall_s"], "", 1)
+        row("%s: real-time factor" % name, mode["realtime_factor"], "≥ 1 (issue 9)", 2)
+        s = mode["seconds"]
+        row("%s: seconds frontend / selection / filter / load" % name,
+            "%.1f / %.1f / %.1f / %.1f" % (s["frontend"], s["selection"], s["filter"], s["load"]))
+        row("%s: estimator real-time factor (selection + filter)" % name,
+            mode["estimator_realtime_factor"], "≥ 10 (issue 9)", 1)
+        row("%s: peak RSS (MB)" % name, mode["peak_rss_mb"], "≤ 1536 (issue 9)", 0)
+        ate = mode["ate_rmse_m"] or {}
+        row("%s: frames selected, ATE keyframes / all frames (cm)" % name,
+            "%d, %.2f / %.2f" % (mode["frames_selected"], 100 * ate.get("keyframes", float("nan")),
+                                 100 * ate.get("trajectory", float("nan"))))
+    row("pipelined / sequential wall time", summary["pipelined_over_sequential_wall"], "", 2)
+    row("pipelined trajectory.tum identical to --threads 1", "yes" if same else "NO", "yes")
+    row("simulate: info (buffer 3) / all-frames time", sim["time_ratio"], "paper ≈ 0.5", 2)
+    row("simulate: info (buffer 3) / all-frames state dimension", sim["dim_ratio"], "paper ≈ 0.67", 2)
+    row("simulate: frames used by info (buffer 3)", "%.0f of %.0f" % (sim["frames_used_info3"],
+                                                                    sim["frames_total"]),
+        "paper 163 of 300")
+    lines += ["", "| micro-benchmark | median ms (wall) | CPU ms | counters |", "|---|---|---|---|"]
+    for r in micro:
+        lines.append("| %s | %.3f | %.3f | %s |" % (r["what"], r["median_ms"], r["cpu_ms"], ", ".join(
+            "%s=%g" % kv for kv in r["counters"].items() if isinstance(kv[1], (int, float)))))
     text = "\n".join(lines) + "\n"
-    open(os.path.join(out, "bench.md"), "w").write(text)
+    with open(os.path.join(out, "bench.md"), "w") as f:
+        f.write(text)
     print(text)
 
 

@@ -1,0 +1,118 @@
+#include "frontend/frame_prefetcher.h"
+
+#include <algorithm>
+#include <chrono>
+
+#include <glog/logging.h>
+
+#include "core/error.h"
+
+namespace ieslam {
+namespace {
+
+double SecondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+}  // namespace
+
+bool PrefetchOptions::Check(std::string* why) const {
+  auto fail = [why](const std::string& message) {
+    if (why != nullptr) *why = message;
+    return false;
+  };
+  if (workers < 0 || workers > 64) {
+    return fail("prefetch.workers must be in [0, 64], got " + std::to_string(workers));
+  }
+  if (capacity < 1) return fail("prefetch.capacity must be >= 1, got " + std::to_string(capacity));
+  return true;
+}
+
+FramePrefetcher::FramePrefetcher(const Dataset& dataset, const FrameProcessor& processor,
+                                 const PrefetchOptions& options)
+    : dataset_(dataset), processor_(processor), options_(options) {
+  std::string why;
+  if (!options.Check(&why)) throw ConfigError(why);
+  for (int w = 0; w < options.workers; ++w) threads_.emplace_back([this] { WorkerLoop(); });
+}
+
+FramePrefetcher::~FramePrefetcher() {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    stop_ = true;
+  }
+  work_cv_.notify_all();
+  for (std::thread& thread : threads_) thread.join();
+}
+
+PrefetchedFrame FramePrefetcher::LoadAndProcess(int frame) const {
+  PrefetchedFrame out;
+  const auto start = std::chrono::steady_clock::now();
+  const Frame loaded = dataset_.Load(frame);  // the images are released when this returns
+  out.seconds_load = SecondsSince(start);
+  out.processed = processor_.Process(loaded);
+  return out;
+}
+
+void FramePrefetcher::WorkerLoop() {
+  std::unique_lock<std::mutex> lock(mutex_);
+  while (true) {
+    work_cv_.wait(lock, [this] {
+      return stop_ || (next_ < dataset_.size() &&
+                       static_cast<int>(slots_.size()) < options_.capacity);
+    });
+    if (stop_) return;
+    const int frame = next_++;
+    slots_.emplace(frame, Slot());  // in flight: Take() of this frame waits for it
+    lock.unlock();
+    Slot finished;
+    try {
+      finished.result = LoadAndProcess(frame);
+    } catch (...) {
+      // Handed to the caller that takes this frame, where the sequential mode throws too.
+      finished.error = std::current_exception();
+    }
+    finished.done = true;
+    lock.lock();
+    slots_.at(frame) = std::move(finished);
+    done_cv_.notify_all();
+  }
+}
+
+void FramePrefetcher::DropBefore(int frame) {
+  for (auto it = slots_.begin(); it != slots_.end() && it->first < frame;) {
+    it = it->second.done ? slots_.erase(it) : std::next(it);
+  }
+}
+
+PrefetchedFrame FramePrefetcher::Take(int frame) {
+  CHECK_GE(frame, 0);
+  CHECK_LT(frame, dataset_.size());
+  if (threads_.empty()) return LoadAndProcess(frame);
+
+  std::unique_lock<std::mutex> lock(mutex_);
+  taken_ = std::max(taken_, frame);
+  auto it = slots_.find(frame);
+  if (it == slots_.end()) {
+    // Not started (a jump ahead, or a frame taken or dropped before): process it here;
+    // the workers go on after it.
+    next_ = std::max(next_, frame + 1);
+    DropBefore(taken_);
+    lock.unlock();
+    work_cv_.notify_all();
+    return LoadAndProcess(frame);
+  }
+  const auto start = std::chrono::steady_clock::now();
+  // `it` stays valid: only Take() erases slots, and a worker only assigns to its own.
+  done_cv_.wait(lock, [&it] { return it->second.done; });
+  seconds_waited_ += SecondsSince(start);
+  Slot slot = std::move(it->second);
+  slots_.erase(it);
+  DropBefore(taken_);
+  lock.unlock();
+  work_cv_.notify_all();
+  if (slot.error) std::rethrow_exception(slot.error);
+  return std::move(slot.result);
+}
+
+}  // namespace ieslam
