@@ -26,6 +26,20 @@ double AteOfFiles(const std::string& gt_path, const std::string& est_path) {
   return ComputeAte(gt, est, EvaluationOptions(), gt_path, est_path).translation.rmse;
 }
 
+// One warning line per skipped frame (the first few; report.json lists them all), so that a
+// bad image in the middle of a long sequence is seen without reading the report.
+void WarnAboutSkippedFrames(const std::vector<std::pair<int, std::string>>& skipped) {
+  constexpr size_t kShown = 10;
+  for (size_t i = 0; i < skipped.size() && i < kShown; ++i) {
+    std::fprintf(stderr, "run: warning: frame %d skipped: %s\n", skipped[i].first,
+                 skipped[i].second.c_str());
+  }
+  if (skipped.size() > kShown) {
+    std::fprintf(stderr, "run: warning: %zu more frames skipped (report.json: frames_skipped)\n",
+                 skipped.size() - kShown);
+  }
+}
+
 }  // namespace
 
 bool RunOptions::Check(std::string* why) const {
@@ -115,6 +129,7 @@ RunSummary RunPipeline(const RunOptions& options, const std::function<bool()>& s
       summary.frames_skipped.emplace_back(f, selection.frames[f].skip_reason);
     }
   }
+  WarnAboutSkippedFrames(summary.frames_skipped);
   const std::string out = options.output;
   WriteTumTrajectory(JoinPath(out, "keyframes.tum"), keyframes, "ieslam keyframes (filter estimate)");
   WriteTumTrajectory(JoinPath(out, "trajectory.tum"), trajectory, "ieslam every processed frame");

@@ -2,8 +2,10 @@
 
 #include <algorithm>
 #include <chrono>
+#include <string>
 
 #include <glog/logging.h>
+#include <opencv2/core.hpp>
 
 #include "core/error.h"
 
@@ -53,12 +55,51 @@ const ProcessedFrame& RgbdFrameSource::Processed(int frame) {
   auto it = processed_.find(frame);
   if (it != processed_.end()) return it->second;
   const auto start = std::chrono::steady_clock::now();
-  const Frame loaded = dataset_.Load(frame);  // the images are released when this returns
-  timings_.load_s += SecondsSince(start);
-  ProcessedFrame processed = processor_.Process(loaded);
-  timings_.extract_s += processed.seconds_extract;
-  timings_.lift_s += processed.seconds_lift;
+  const std::string name = "frame " + std::to_string(frame) + ": ";
+  ProcessedFrame processed;
+  std::string unusable;
+  try {
+    const Frame loaded = dataset_.Load(frame);  // the images are released when this returns
+    timings_.load_s += SecondsSince(start);
+    if (cv::countNonZero(loaded.depth) == 0) {
+      unusable = name + "range image " + loaded.info.depth_path +
+                 " has no valid measurement (all zero, invalid or out of range)";
+    } else {
+      processed = processor_.Process(loaded);
+      timings_.extract_s += processed.seconds_extract;
+      timings_.lift_s += processed.seconds_lift;
+      const int needed = options_.frontend.registration.min_inliers;
+      if (processed.features.size() < needed) {
+        unusable = name + "too little texture: " + std::to_string(processed.features.size()) +
+                   " of " + std::to_string(processed.keypoints_detected) +
+                   " keypoints lifted through the range image, registration needs " +
+                   std::to_string(needed) + " (" + loaded.info.colour_path + ")";
+      }
+    }
+  } catch (const DataError& e) {
+    // Load's messages already name the frame and the file.
+    timings_.load_s += SecondsSince(start);
+    unusable = e.what();
+  }
+  if (!unusable.empty()) {
+    processed = ProcessedFrame();  // no features: it can neither register nor be matched
+    unusable_[frame] = unusable;
+  }
+  processed.info = dataset_.info(frame);
   return processed_.emplace(frame, std::move(processed)).first->second;
+}
+
+std::string RgbdFrameSource::UnusableReason(int frame) const {
+  const auto it = unusable_.find(frame);
+  return it == unusable_.end() ? std::string() : it->second;
+}
+
+CandidateFrame RgbdFrameSource::Unusable(int frame) const {
+  CandidateFrame candidate;
+  candidate.frame = frame;
+  candidate.timestamp = timestamp(frame);
+  candidate.reason = UnusableReason(frame);
+  return candidate;
 }
 
 FrameRegistration RgbdFrameSource::Register(int base, int frame) {
@@ -75,12 +116,20 @@ FrameRegistration RgbdFrameSource::Register(int base, int frame) {
 }
 
 CandidateFrame RgbdFrameSource::PrepareFirst(int frame) {
-  // The first frame has no base: all of its (capped) lifted keypoints become features.
+  // The first frame has no base: all of its (capped) lifted keypoints become features. It
+  // defines the map, so an unusable one ends the run rather than being skipped.
+  Processed(frame);
+  const std::string unusable = UnusableReason(frame);
+  if (!unusable.empty()) {
+    throw DataError("the first frame cannot start the map: " + unusable +
+                    " (choose a later first frame with --first)");
+  }
   return Build(frame, {});
 }
 
 CandidateFrame RgbdFrameSource::Prepare(int frame) {
   const ProcessedFrame& processed = Processed(frame);
+  if (unusable_.count(frame) > 0) return Unusable(frame);
   const auto start = std::chrono::steady_clock::now();
   std::vector<int> bases;
   for (const auto& [base, votes] :
@@ -95,6 +144,8 @@ CandidateFrame RgbdFrameSource::Prepare(int frame) {
 }
 
 CandidateFrame RgbdFrameSource::PrepareAgainst(int frame, int base_frame) {
+  Processed(frame);
+  if (unusable_.count(frame) > 0) return Unusable(frame);
   return Build(frame, {base_frame});
 }
 
