@@ -43,6 +43,10 @@ Trajectory ReadTumTrajectory(const std::string& path) {
   RequireFile(path, "trajectory file");
   std::ifstream in(path);
   if (!in) throw DataError("cannot open trajectory file " + path);
+  return ParseTumTrajectory(in, path);
+}
+
+Trajectory ParseTumTrajectory(std::istream& in, const std::string& path) {
   Trajectory trajectory;
   std::string line;
   int line_number = 0;
