@@ -19,11 +19,17 @@ double SecondsSince(std::chrono::steady_clock::time_point start) {
 }
 
 // ATE of a written estimate against the written ground truth, exactly as `ieslam evaluate`
-// computes it from the same files.
+// computes it from the same files; -1 with a warning when it cannot be computed (a run that
+// lost track after its first frame still writes its report).
 double AteOfFiles(const std::string& gt_path, const std::string& est_path) {
-  const Trajectory gt = ReadTumTrajectoryForEvaluation(gt_path);
-  const Trajectory est = ReadTumTrajectoryForEvaluation(est_path);
-  return ComputeAte(gt, est, EvaluationOptions(), gt_path, est_path).translation.rmse;
+  try {
+    const Trajectory gt = ReadTumTrajectoryForEvaluation(gt_path);
+    const Trajectory est = ReadTumTrajectoryForEvaluation(est_path);
+    return ComputeAte(gt, est, EvaluationOptions(), gt_path, est_path).translation.rmse;
+  } catch (const DataError& e) {
+    std::fprintf(stderr, "run: warning: no ATE for %s: %s\n", est_path.c_str(), e.what());
+    return -1.0;
+  }
 }
 
 // One warning line per skipped frame (the first few; report.json lists them all), so that a
@@ -226,8 +232,10 @@ RunSummary RunPipeline(const RunOptions& options, const std::function<bool()>& s
       .Set("load", t.load_s);
   if (options.refine) report["seconds"].Set("ba", ba_seconds);
   if (has_gt) {
-    report["ate_rmse_m"].Set("keyframes", summary.ate_keyframes_m).Set("trajectory", summary.ate_trajectory_m);
-    if (options.refine) report["ate_rmse_m"].Set("refined", summary.ate_refined_m);
+    Json& ate = report["ate_rmse_m"];  // only what could be computed
+    if (summary.ate_keyframes_m >= 0.0) ate.Set("keyframes", summary.ate_keyframes_m);
+    if (summary.ate_trajectory_m >= 0.0) ate.Set("trajectory", summary.ate_trajectory_m);
+    if (options.refine && summary.ate_refined_m >= 0.0) ate.Set("refined", summary.ate_refined_m);
   }
   if (options.refine) report.Set("filter_vs_smoother", comparison);
   Json decisions = Json::Array();

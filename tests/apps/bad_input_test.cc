@@ -18,6 +18,7 @@
 
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "core/calibration.h"
 #include "frontend/synthetic_dataset.h"
@@ -290,6 +291,39 @@ TEST_F(BadInputTest, ABadFirstFrameEndsTheRunWithExit3) {
   EXPECT_TRUE(Contains(r.output, "the first frame cannot start the map: frame 0: cannot decode "
                                  "colour image " + image.string()))
       << r.output;
+}
+
+TEST_F(BadInputTest, OnlyTheFirstFrameUsableStillWritesEveryOutput) {
+  // Frame 0 is fine (texture at 1.5 m); the images of frames 1..4 are missing.
+  const fs::path dir = ListsOnly("first_only");
+  const Rig rig = SyntheticRig(SyntheticSensor::kRgbd, 0.5);
+  cv::Mat colour(rig.colour.height, rig.colour.width, CV_8UC3);
+  cv::RNG rng(5);
+  rng.fill(colour, cv::RNG::UNIFORM, 0, 255);
+  cv::GaussianBlur(colour, colour, cv::Size(5, 5), 1.5);
+  const fs::path colour_path = dir / ListEntries(dir / "rgb.txt")[0].second;
+  const fs::path depth_path = dir / ListEntries(dir / "depth.txt")[0].second;
+  fs::create_directories(colour_path.parent_path());
+  fs::create_directories(depth_path.parent_path());
+  ASSERT_TRUE(cv::imwrite(colour_path.string(), colour));
+  const cv::Mat depth(colour.size(), CV_16UC1,
+                      cv::Scalar(static_cast<int>(1.5 / rig.range.depth_scale)));
+  ASSERT_TRUE(cv::imwrite(depth_path.string(), depth));
+  const fs::path out = root_ / "first_only_out";
+  const Result r = RunIeslam("run --quiet --dataset " + dir.string() + " --output " + out.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_TRUE(Contains(r.output, "4 skipped")) << r.output;
+  EXPECT_TRUE(Contains(r.output, "run: warning: frame 4 skipped: frame 4: colour image not found"))
+      << r.output;
+  // Too few poses for an ATE: a warning, and the report leaves it out rather than failing.
+  EXPECT_TRUE(Contains(r.output, "run: warning: no ATE for " + (out / "keyframes.tum").string()))
+      << r.output;
+  const std::string report = ReadFile(out / "report.json");
+  EXPECT_TRUE(Contains(report, "\"frames_selected\": 1")) << report.substr(0, 1500);
+  EXPECT_FALSE(Contains(report, "\"keyframes\": "));
+  for (const char* file : {"keyframes.tum", "trajectory.tum", "map.ply"}) {
+    EXPECT_TRUE(fs::is_regular_file(out / file)) << file;
+  }
 }
 
 // ------------------------------------------------- bad datasets and files: clean exits
