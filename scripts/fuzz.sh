@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Builds the libFuzzer targets of tests/fuzz with clang (ASan + UBSan) in BUILD_DIR
 # (default build-fuzz/) and runs each for at most FUZZ_RUNS executions (default 10^6) or
-# FUZZ_SECONDS seconds (default 600), whichever comes first; prints each target's execution
+# FUZZ_SECONDS seconds (default 1800), whichever comes first; prints each target's execution
 # count. Installs clang and libFuzzer (Debian: clang, libclang-rt-14-dev) when missing.
 # Exits non-zero when a target finds a crash, a sanitizer report or a broken invariant; the
 # input is then in BUILD_DIR/artifacts/. Usage: scripts/fuzz.sh [target ...]
@@ -9,7 +9,7 @@ set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 build_dir=${BUILD_DIR:-$root/build-fuzz}
 runs=${FUZZ_RUNS:-1000000}
-seconds=${FUZZ_SECONDS:-600}
+seconds=${FUZZ_SECONDS:-1800}
 
 packages=(clang libclang-rt-14-dev)
 missing=()
