@@ -210,11 +210,11 @@ class BadInputTest : public ::testing::Test {
 
   // The skip is listed with a reason holding every part, and warned about on the terminal.
   static void ExpectSkipped(int frame, const std::vector<std::string>& parts) {
-    RunDamagedSequence();
     const std::string reason = SkipReason(frame);
     ASSERT_FALSE(reason.empty()) << "frame " << frame << " not in frames_skipped:\n"
                                  << damaged_report_.substr(0, 2000);
     for (const std::string& part : parts) {
+      ASSERT_FALSE(part.empty());
       EXPECT_TRUE(Contains(reason, part)) << "reason: " << reason << "\nlacks: " << part;
     }
     EXPECT_TRUE(Contains(damaged_run_.output,
@@ -237,8 +237,14 @@ std::vector<fs::path> BadInputTest::textureless_;
 
 // ------------------------------------------------- bad frames mid-sequence: counted skips
 
-TEST_F(BadInputTest, DamagedFramesAreSkippedAndTheRunStillTracks) {
-  RunDamagedSequence();
+// ctest runs each test in a process of its own: the damaged run (and the paths its
+// assertions name) must exist before a test body builds its expectations.
+class DamagedSequenceTest : public BadInputTest {
+ protected:
+  void SetUp() override { RunDamagedSequence(); }
+};
+
+TEST_F(DamagedSequenceTest, DamagedFramesAreSkippedAndTheRunStillTracks) {
   ASSERT_EQ(damaged_run_.exit_code, 0) << damaged_run_.output;
   EXPECT_TRUE(Contains(damaged_run_.output, "6 skipped")) << damaged_run_.output;
   EXPECT_TRUE(Contains(damaged_report_, "\"interrupted\": false"));
@@ -258,24 +264,24 @@ TEST_F(BadInputTest, DamagedFramesAreSkippedAndTheRunStillTracks) {
   EXPECT_LT(std::stod(evaluated.output.substr(at + 9)), 0.03) << evaluated.output;
 }
 
-TEST_F(BadInputTest, CorruptImageIsASkipNamingTheFile) {
+TEST_F(DamagedSequenceTest, CorruptImageIsASkipNamingTheFile) {
   ExpectSkipped(3, {"frame 3", "cannot decode colour image", corrupt_.string()});
 }
 
-TEST_F(BadInputTest, TruncatedImageIsASkipNamingTheFile) {
+TEST_F(DamagedSequenceTest, TruncatedImageIsASkipNamingTheFile) {
   ExpectSkipped(5, {"frame 5", "range image", truncated_.string()});
 }
 
-TEST_F(BadInputTest, WrongSizeImageIsASkipNamingFileAndSizes) {
+TEST_F(DamagedSequenceTest, WrongSizeImageIsASkipNamingFileAndSizes) {
   ExpectSkipped(7, {"frame 7", wrong_size_.string() + " is 160x120 but calibration",
                     "expects 320x240"});
 }
 
-TEST_F(BadInputTest, AllZeroDepthIsASkipNamingTheFile) {
+TEST_F(DamagedSequenceTest, AllZeroDepthIsASkipNamingTheFile) {
   ExpectSkipped(9, {"frame 9", zero_depth_.string(), "no valid measurement"});
 }
 
-TEST_F(BadInputTest, TexturelessFramesAreSkipsNamingTheFile) {
+TEST_F(DamagedSequenceTest, TexturelessFramesAreSkipsNamingTheFile) {
   ExpectSkipped(11, {"frame 11", "too little texture", textureless_[0].string()});
   ExpectSkipped(12, {"frame 12", "too little texture", textureless_[1].string()});
 }
