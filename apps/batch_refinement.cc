@@ -2,17 +2,24 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdio>
 
 #include "backend/evaluation.h"
+#include "core/error.h"
 #include "core/file_util.h"
 #include "core/trajectory.h"
 
 namespace ieslam {
 
 double AteOfFiles(const std::string& gt_path, const std::string& est_path) {
-  const Trajectory gt = ReadTumTrajectoryForEvaluation(gt_path);
-  const Trajectory est = ReadTumTrajectoryForEvaluation(est_path);
-  return ComputeAte(gt, est, EvaluationOptions(), gt_path, est_path).translation.rmse;
+  try {
+    const Trajectory gt = ReadTumTrajectoryForEvaluation(gt_path);
+    const Trajectory est = ReadTumTrajectoryForEvaluation(est_path);
+    return ComputeAte(gt, est, EvaluationOptions(), gt_path, est_path).translation.rmse;
+  } catch (const DataError& e) {
+    std::fprintf(stderr, "warning: no ATE for %s: %s\n", est_path.c_str(), e.what());
+    return -1.0;
+  }
 }
 
 RefinementOutcome RefineToFiles(const StoredBaProblem& stored, const SlamEstimate& filter_estimate,

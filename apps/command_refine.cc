@@ -81,8 +81,9 @@ int RefineCommand(const CommandArgs& args) {
   report["seconds"].Set("ba", refined.seconds);
   const std::string keyframes = JoinPath(run, "keyframes.tum");
   if (has_gt) {
-    if (FileExists(keyframes)) report["ate_rmse_m"].Set("keyframes", AteOfFiles(gt, keyframes));
-    report["ate_rmse_m"].Set("refined", refined.ate_refined_m);
+    const double keyframes_ate = FileExists(keyframes) ? AteOfFiles(gt, keyframes) : -1.0;
+    if (keyframes_ate >= 0.0) report["ate_rmse_m"].Set("keyframes", keyframes_ate);
+    if (refined.ate_refined_m >= 0.0) report["ate_rmse_m"].Set("refined", refined.ate_refined_m);
   }
   report.Set("filter_vs_smoother", refined.comparison);
   WriteTextAtomically(JoinPath(out, "report.json"), report.Dump() + "\n");
@@ -90,7 +91,7 @@ int RefineCommand(const CommandArgs& args) {
   std::printf("refine: %zu poses, %zu features, %zu observations, %.2f s\n",
               stored.problem.T_w_c.size(), stored.problem.p_w.size(),
               stored.problem.observations.size(), refined.seconds);
-  if (has_gt) std::printf("refine: ATE RMSE refined keyframes %.4f m\n", refined.ate_refined_m);
+  if (refined.ate_refined_m >= 0.0) std::printf("refine: ATE RMSE refined keyframes %.4f m\n", refined.ate_refined_m);
   std::printf("refine: results in %s\n", out.c_str());
   return 0;
 }

@@ -47,6 +47,20 @@ int PrefetchWorkers(int threads) {
   return std::clamp(cores - 1, 1, 3);
 }
 
+// One warning line per skipped frame (the first few; report.json lists them all), so that a
+// bad image in the middle of a long sequence is seen without reading the report.
+void WarnAboutSkippedFrames(const std::vector<std::pair<int, std::string>>& skipped) {
+  constexpr size_t kShown = 10;
+  for (size_t i = 0; i < skipped.size() && i < kShown; ++i) {
+    std::fprintf(stderr, "run: warning: frame %d skipped: %s\n", skipped[i].first,
+                 skipped[i].second.c_str());
+  }
+  if (skipped.size() > kShown) {
+    std::fprintf(stderr, "run: warning: %zu more frames skipped (report.json: frames_skipped)\n",
+                 skipped.size() - kShown);
+  }
+}
+
 }  // namespace
 
 bool RunOptions::Check(std::string* why) const {
@@ -146,6 +160,7 @@ RunSummary RunPipeline(const RunOptions& options, const std::function<bool()>& s
       summary.frames_skipped.emplace_back(f, selection.frames[f].skip_reason);
     }
   }
+  WarnAboutSkippedFrames(summary.frames_skipped);
   const std::string out = options.output;
   WriteTumTrajectory(JoinPath(out, "keyframes.tum"), keyframes, "ieslam keyframes (filter estimate)");
   WriteTumTrajectory(JoinPath(out, "trajectory.tum"), trajectory, "ieslam every processed frame");
@@ -160,8 +175,7 @@ RunSummary RunPipeline(const RunOptions& options, const std::function<bool()>& s
   if (dataset->has_ground_truth()) {
     WriteTumTrajectory(JoinPath(out, "groundtruth.tum"), dataset->GroundTruth(), "ground truth");
   }
-  // The rigid alignment needs 3 poses; a run interrupted that early reports no ATE.
-  const bool has_gt = dataset->has_ground_truth() && keyframes.size() >= 3;
+  const bool has_gt = dataset->has_ground_truth();
   if (has_gt) {
     summary.ate_keyframes_m = AteOfFiles(JoinPath(out, "groundtruth.tum"), JoinPath(out, "keyframes.tum"));
     summary.ate_trajectory_m =
@@ -250,8 +264,10 @@ RunSummary RunPipeline(const RunOptions& options, const std::function<bool()>& s
       .Set("fetch_wall", t.fetch_wall_s);
   if (options.refine) report["seconds"].Set("ba", ba_seconds);
   if (has_gt) {
-    report["ate_rmse_m"].Set("keyframes", summary.ate_keyframes_m).Set("trajectory", summary.ate_trajectory_m);
-    if (options.refine) report["ate_rmse_m"].Set("refined", summary.ate_refined_m);
+    Json& ate = report["ate_rmse_m"];  // only what could be computed
+    if (summary.ate_keyframes_m >= 0.0) ate.Set("keyframes", summary.ate_keyframes_m);
+    if (summary.ate_trajectory_m >= 0.0) ate.Set("trajectory", summary.ate_trajectory_m);
+    if (options.refine && summary.ate_refined_m >= 0.0) ate.Set("refined", summary.ate_refined_m);
   }
   if (options.refine) report.Set("filter_vs_smoother", comparison);
   if (pose_sigmas.is_array()) report.Set("keyframe_sigmas", pose_sigmas);

@@ -190,20 +190,8 @@ std::string ReadText(const std::string& path) {
   return s.str();
 }
 
-}  // namespace
-
-Rig ParseCalibration(const std::string& yaml, const std::string& source) {
-  // OpenCV refuses YAML without its `%YAML:1.0` directive; hand-written files often lack it.
-  const std::string text = yaml.rfind("%YAML", 0) == 0 ? yaml : "%YAML:1.0\n" + yaml;
-  cv::FileStorage fs;
-  try {
-    fs.open(text, cv::FileStorage::READ | cv::FileStorage::MEMORY);
-  } catch (const cv::Exception& e) {
-    throw ConfigError(source + ": not valid calibration YAML: " + e.msg);
-  }
-  if (!fs.isOpened() || !fs.root().isMap()) {
-    throw ConfigError(source + ": not valid calibration YAML (expected a map of keys)");
-  }
+// The rig in an opened calibration file (see ParseCalibration).
+Rig RigFromYaml(const cv::FileStorage& fs, const std::string& source) {
   const Section root(fs.root(), "", &source);
   std::set<std::string> allowed = {"name",   "registered", "pixel_sigma",
                                    "colour", "range",      "T_colour_range"};
@@ -228,6 +216,36 @@ Rig ParseCalibration(const std::string& yaml, const std::string& source) {
   std::string why;
   if (!rig.Check(&why)) throw ConfigError(source + ": invalid calibration: " + why);
   return rig;
+}
+
+}  // namespace
+
+Rig ParseCalibration(const std::string& yaml, const std::string& source) {
+  // OpenCV's YAML parser throws std::length_error on some inputs with NUL bytes (found by
+  // tests/fuzz/calibration_fuzz.cc); no calibration file holds one, so they are refused first.
+  const size_t nul = yaml.find('\0');
+  if (nul != std::string::npos) {
+    throw ConfigError(source + ": not a text file (NUL byte at offset " + std::to_string(nul) + ")");
+  }
+  // OpenCV refuses YAML without its `%YAML:1.0` directive; hand-written files often lack it.
+  const std::string text = yaml.rfind("%YAML", 0) == 0 ? yaml : "%YAML:1.0\n" + yaml;
+  cv::FileStorage fs;
+  try {
+    fs.open(text, cv::FileStorage::READ | cv::FileStorage::MEMORY);
+  } catch (const cv::Exception& e) {
+    throw ConfigError(source + ": not valid calibration YAML: " + e.msg);
+  } catch (const std::exception& e) {
+    // Whatever else the parser throws is still a file we cannot read, not a program error.
+    throw ConfigError(source + ": not valid calibration YAML: " + e.what());
+  }
+  if (!fs.isOpened() || !fs.root().isMap()) {
+    throw ConfigError(source + ": not valid calibration YAML (expected a map of keys)");
+  }
+  try {
+    return RigFromYaml(fs, source);
+  } catch (const cv::Exception& e) {
+    throw ConfigError(source + ": not valid calibration YAML: " + e.msg);
+  }
 }
 
 Rig ReadCalibration(const std::string& path) { return ParseCalibration(ReadText(path), path); }

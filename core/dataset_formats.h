@@ -2,6 +2,7 @@
 // timestamped formats (tum, pair) share. Users include core/dataset.h only.
 #pragma once
 
+#include <istream>
 #include <optional>
 #include <string>
 #include <vector>
@@ -42,6 +43,9 @@ struct StampedPath {
 // naming the file and line for a missing file, a malformed line, a non-finite timestamp,
 // or timestamps that are not strictly increasing (unsorted or duplicate).
 std::vector<StampedPath> ReadStampedList(const std::string& list_path);
+// The same from a stream; `list_path` names it in messages, paths resolve against `directory`.
+std::vector<StampedPath> ParseStampedList(std::istream& in, const std::string& list_path,
+                                          const std::string& directory);
 
 // Pairs timestamps of `a` and `b` as TUM's associate.py does: every pair closer than
 // `max_diff` is a candidate; candidates are taken greedily by increasing |dt|, each

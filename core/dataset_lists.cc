@@ -22,7 +22,11 @@ std::vector<StampedPath> ReadStampedList(const std::string& list_path) {
   RequireFile(list_path, "image list");
   std::ifstream in(list_path);
   if (!in) throw DataError("cannot open image list " + list_path);
-  const std::string directory = std::filesystem::path(list_path).parent_path().string();
+  return ParseStampedList(in, list_path, std::filesystem::path(list_path).parent_path().string());
+}
+
+std::vector<StampedPath> ParseStampedList(std::istream& in, const std::string& list_path,
+                                          const std::string& directory) {
   std::vector<StampedPath> entries;
   std::string line;
   int line_number = 0;

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <fstream>
 #include <sstream>
+#include <string>
 
 #include "core/error.h"
 #include "core/file_util.h"
@@ -43,6 +44,10 @@ Trajectory ReadTumTrajectory(const std::string& path) {
   RequireFile(path, "trajectory file");
   std::ifstream in(path);
   if (!in) throw DataError("cannot open trajectory file " + path);
+  return ParseTumTrajectory(in, path);
+}
+
+Trajectory ParseTumTrajectory(std::istream& in, const std::string& path) {
   Trajectory trajectory;
   std::string line;
   int line_number = 0;
@@ -68,10 +73,16 @@ std::string FormatTumLine(const TimedPose& pose) {
   Eigen::Quaterniond q(pose.T_w_c.linear());
   if (q.w() < 0.0) q.coeffs() = -q.coeffs();  // one sign for q and -q, so files compare equal
   const Eigen::Vector3d& t = pose.T_w_c.translation();
-  char buffer[256];
-  std::snprintf(buffer, sizeof(buffer), "%.6f %.9f %.9f %.9f %.9f %.9f %.9f %.9f", pose.timestamp,
-                t.x(), t.y(), t.z(), q.x(), q.y(), q.z(), q.w());
-  return buffer;
+  // Sized by a first call: a fixed buffer silently cut lines with huge values (a 1e308
+  // coordinate prints 309 digits; found by tests/fuzz/tum_trajectory_fuzz.cc).
+  const char* const format = "%.6f %.9f %.9f %.9f %.9f %.9f %.9f %.9f";
+  const int size = std::snprintf(nullptr, 0, format, pose.timestamp, t.x(), t.y(), t.z(), q.x(),
+                                 q.y(), q.z(), q.w());
+  std::string line(static_cast<size_t>(size) + 1, '\0');
+  std::snprintf(line.data(), line.size(), format, pose.timestamp, t.x(), t.y(), t.z(), q.x(), q.y(),
+                q.z(), q.w());
+  line.resize(static_cast<size_t>(size));
+  return line;
 }
 
 void WriteTumTrajectory(const std::string& path, const Trajectory& trajectory,

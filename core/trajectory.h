@@ -2,6 +2,7 @@
 // (camera-to-world, unit quaternion with w last), `#` comments and blank lines allowed.
 #pragma once
 
+#include <istream>
 #include <string>
 #include <vector>
 
@@ -25,6 +26,8 @@ TimedPose ParseTumPoseLine(std::string line, const std::string& where);
 // NaN/inf values, a zero quaternion, or timestamps that are not strictly increasing.
 // Quaternions are normalised (files print them to 4-6 decimals).
 Trajectory ReadTumTrajectory(const std::string& path);
+// The same from a stream; `path` names it in messages.
+Trajectory ParseTumTrajectory(std::istream& in, const std::string& path);
 
 // Writes atomically with 6-decimal timestamps and 9-decimal values; `comment` (without
 // the leading '#') becomes the first line when non-empty.

@@ -5,6 +5,8 @@
 
 #include <glog/logging.h>
 
+#include <opencv2/core.hpp>
+
 #include "core/error.h"
 
 namespace ieslam {
@@ -50,7 +52,8 @@ PrefetchedFrame FramePrefetcher::LoadAndProcess(int frame) const {
   const auto start = std::chrono::steady_clock::now();
   const Frame loaded = dataset_.Load(frame);  // the images are released when this returns
   out.seconds_load = SecondsSince(start);
-  out.processed = processor_.Process(loaded);
+  out.has_valid_depth = cv::countNonZero(loaded.depth) > 0;
+  if (out.has_valid_depth) out.processed = processor_.Process(loaded);
   return out;
 }
 

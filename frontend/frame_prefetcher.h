@@ -34,6 +34,9 @@ struct PrefetchOptions {
 struct PrefetchedFrame {
   ProcessedFrame processed;
   double seconds_load = 0.0;  // reading and decoding the images
+  // False when the range image holds no valid measurement at all; then the frame is not
+  // processed (no features).
+  bool has_valid_depth = true;
 };
 
 class FramePrefetcher {

@@ -2,8 +2,10 @@
 
 #include <algorithm>
 #include <chrono>
+#include <string>
 
 #include <glog/logging.h>
+#include <opencv2/core.hpp>
 
 #include "core/error.h"
 
@@ -54,13 +56,51 @@ const ProcessedFrame& RgbdFrameSource::Processed(int frame) {
   auto it = processed_.find(frame);
   if (it != processed_.end()) return it->second;
   const auto start = std::chrono::steady_clock::now();
-  PrefetchedFrame fetched = prefetcher_.Take(frame);  // the images are already released
-  timings_.fetch_wall_s += SecondsSince(start);
-  timings_.load_s += fetched.seconds_load;
-  ProcessedFrame& processed = fetched.processed;
-  timings_.extract_s += processed.seconds_extract;
-  timings_.lift_s += processed.seconds_lift;
+  const std::string name = "frame " + std::to_string(frame) + ": ";
+  ProcessedFrame processed;
+  std::string unusable;
+  try {
+    PrefetchedFrame fetched = prefetcher_.Take(frame);  // the images are already released
+    timings_.fetch_wall_s += SecondsSince(start);
+    timings_.load_s += fetched.seconds_load;
+    processed = std::move(fetched.processed);
+    timings_.extract_s += processed.seconds_extract;
+    timings_.lift_s += processed.seconds_lift;
+    const FrameInfo& info = dataset_.info(frame);
+    const int needed = options_.frontend.registration.min_inliers;
+    if (!fetched.has_valid_depth) {
+      unusable = name + "range image " + info.depth_path +
+                 " has no valid measurement (all zero, invalid or out of range)";
+    } else if (processed.features.size() < needed) {
+      unusable = name + "too little texture: " + std::to_string(processed.features.size()) +
+                 " of " + std::to_string(processed.keypoints_detected) +
+                 " keypoints lifted through the range image, registration needs " +
+                 std::to_string(needed) + " (" + info.colour_path + ")";
+    }
+  } catch (const DataError& e) {
+    // Load's messages already name the frame and the file.
+    timings_.fetch_wall_s += SecondsSince(start);
+    unusable = e.what();
+  }
+  if (!unusable.empty()) {
+    processed = ProcessedFrame();  // no features: it can neither register nor be matched
+    unusable_[frame] = unusable;
+  }
+  processed.info = dataset_.info(frame);
   return processed_.emplace(frame, std::move(processed)).first->second;
+}
+
+std::string RgbdFrameSource::UnusableReason(int frame) const {
+  const auto it = unusable_.find(frame);
+  return it == unusable_.end() ? std::string() : it->second;
+}
+
+CandidateFrame RgbdFrameSource::Unusable(int frame) const {
+  CandidateFrame candidate;
+  candidate.frame = frame;
+  candidate.timestamp = timestamp(frame);
+  candidate.reason = UnusableReason(frame);
+  return candidate;
 }
 
 FrameRegistration RgbdFrameSource::Register(int base, int frame) {
@@ -77,12 +117,20 @@ FrameRegistration RgbdFrameSource::Register(int base, int frame) {
 }
 
 CandidateFrame RgbdFrameSource::PrepareFirst(int frame) {
-  // The first frame has no base: all of its (capped) lifted keypoints become features.
+  // The first frame has no base: all of its (capped) lifted keypoints become features. It
+  // defines the map, so an unusable one ends the run rather than being skipped.
+  Processed(frame);
+  const std::string unusable = UnusableReason(frame);
+  if (!unusable.empty()) {
+    throw DataError("the first frame cannot start the map: " + unusable +
+                    " (choose a later first frame with --first)");
+  }
   return Build(frame, {});
 }
 
 CandidateFrame RgbdFrameSource::Prepare(int frame) {
   const ProcessedFrame& processed = Processed(frame);
+  if (unusable_.count(frame) > 0) return Unusable(frame);
   const auto start = std::chrono::steady_clock::now();
   std::vector<int> bases;
   for (const auto& [base, votes] :
@@ -97,6 +145,8 @@ CandidateFrame RgbdFrameSource::Prepare(int frame) {
 }
 
 CandidateFrame RgbdFrameSource::PrepareAgainst(int frame, int base_frame) {
+  Processed(frame);
+  if (unusable_.count(frame) > 0) return Unusable(frame);
   return Build(frame, {base_frame});
 }
 

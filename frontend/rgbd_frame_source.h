@@ -68,11 +68,19 @@ class RgbdFrameSource : public FrameSource {
   void Commit(const CandidateFrame& candidate) override;
 
   const SourceTimings& timings() const { return timings_; }
-  // The processed frame (features and lifted points), processing it now if needed.
+  // The processed frame (features and lifted points), processing it now if needed. A frame
+  // whose images do not load (missing, corrupt, wrong size), whose range image has no valid
+  // measurement, or with too few lifted keypoints to register (textureless) is processed as
+  // an empty frame and is unusable: its candidates are never registered and carry the
+  // reason, so one bad frame is a counted skip rather than the end of the run.
   const ProcessedFrame& Processed(int frame);
+  // Why `frame` is unusable (see Processed), or "" when it is usable or not processed yet.
+  std::string UnusableReason(int frame) const;
 
  private:
   CandidateFrame Build(int frame, const std::vector<int>& bases);
+  // The candidate of an unusable frame: not registered, with the reason.
+  CandidateFrame Unusable(int frame) const;
   FrameRegistration Register(int base, int frame);
 
   const Dataset& dataset_;
@@ -81,6 +89,7 @@ class RgbdFrameSource : public FrameSource {
   BaseFrameDatabase database_;
   FramePrefetcher prefetcher_;
   std::map<int, ProcessedFrame> processed_;
+  std::map<int, std::string> unusable_;  // frame -> why (see Processed)
   // A frame is prepared again in each buffer that holds it: its registrations to base
   // frames do not change, so they are computed once. Entries of frames that became base
   // frames or fell behind are dropped (see Commit).

@@ -161,8 +161,10 @@ TEST_F(RunPipelineTest, SigintMakesTheCommandExit130WithItsOutputs) {
           "--threads", "1", "--quiet", static_cast<char*>(nullptr));
     _exit(127);
   }
-  // Wait until the run is under way (its first frames take well under two seconds).
-  ::usleep(1500 * 1000);
+  // Wait until the run is under way: the handler is installed before the output directory
+  // is made (a fixed sleep raced with process start-up on a loaded machine).
+  for (int i = 0; i < 600 && !fs::exists(out); ++i) ::usleep(100 * 1000);
+  ::usleep(300 * 1000);
   ::kill(child, SIGINT);
   int status = 0;
   ::waitpid(child, &status, 0);

@@ -308,5 +308,27 @@ TEST(ShippedCalibration, DefaultPathPointsIntoDataCalib) {
   EXPECT_TRUE(fs::is_regular_file(path));
 }
 
+// Found by tests/fuzz/calibration_fuzz.cc: OpenCV's YAML parser threw std::length_error on
+// this input (NUL bytes in a key), which escaped as an "internal error" instead of exit code 2.
+TEST(CalibrationFuzzRegression, BinaryGarbageIsAConfigErrorNamingTheFile) {
+  const std::string input(
+      "%YAML:1.0\n---\n# The paper's senso;r package (, T-RO 2000\ncolour:\n  width: 44\n"
+      "  :02\000 0.x0\n  fy: 200.0d\000\000\000\000\000\000\000\002istortion: [0.0, 0cya"
+      "me: tum_fr3\nregistered: 1\npixel_sigma: ,,,,,,,,,,,,,,,,,,,,,,,,,,,,,,,,,,,,,,,,"
+      ",,,,,,,,,,,,,,,,\000\000\365\365\365\365\365\365\365\365\365\000\000\000\000\000\000"
+      "\000\000\000\000\000\000\000\000\000\000\000\000\000\000\000\000\000\000\000\000\000"
+      "\000\000: 10.0\n  noi$se: {a: 0.0002, b: 0.0, c: 0.0016}\nT_.0]\n  dep\000\000cs:"
+      " th T-RO 2000\ncolour:\n  width: 102c",
+      364);
+  try {
+    ParseCalibration(input, "fuzzed.yaml");
+    FAIL() << "accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("fuzzed.yaml: not a text file (NUL byte at offset 82)"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
 }  // namespace
 }  // namespace ieslam

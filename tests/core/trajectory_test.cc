@@ -109,5 +109,19 @@ TEST_F(TrajectoryTest, AtomicWriteFailsCleanlyInAMissingDirectory) {
   EXPECT_THROW(WriteTextAtomically((dir_ / "no" / "such" / "file.txt").string(), "x"), DataError);
 }
 
+// Found by tests/fuzz/tum_trajectory_fuzz.cc: a huge but finite coordinate was cut off by a
+// fixed-size line buffer, so the written file did not read back.
+TEST_F(TrajectoryTest, HugeValuesAreWrittenWholeAndReadBack) {
+  TimedPose pose;
+  pose.timestamp = 1305031449.8096;
+  pose.T_w_c.translation() = Eigen::Vector3d(1.2334, -1.111e308, 1.6939);
+  const std::string line = FormatTumLine(pose);
+  EXPECT_GT(line.size(), 300u);
+  const TimedPose back = ParseTumPoseLine(line, "written");
+  EXPECT_EQ(back.T_w_c.translation().y(), -1.111e308);
+  EXPECT_EQ(back.T_w_c.translation().z(), 1.6939);
+  EXPECT_EQ(back.timestamp, 1305031449.8096);
+}
+
 }  // namespace
 }  // namespace ieslam
