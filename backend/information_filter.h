@@ -4,9 +4,11 @@
 // every 3-D feature, in the global frame. There is no motion model and no prediction step:
 // a pose enters with its observations (eq. 9, linearised once at the current estimate) and
 // the state is recovered by solving I X = i (eq. 10). The information matrix therefore stays
-// sparse — a pose couples only with the features it observes — and is factored with a
-// sparse Cholesky (CHOLMOD), from which log det I and marginal covariances come without
-// ever inverting I.
+// sparse — a pose couples only with the features it observes — and is factored either
+// through its pose Schur complement (features eliminated block by block, the poses' system
+// dense: backend/pose_schur_factor.h) while there are few poses, or with a sparse Cholesky
+// (CHOLMOD); log det I and marginal covariances come from the factor without ever
+// inverting I.
 //
 // The filter also scores candidate frames for the information-efficient selection (§V-A):
 // the exact gain log det I(k+1) - log det I(k) of METHOD.md §4, in O(|S|^3) per candidate

@@ -10,7 +10,9 @@
 //  - a corridor: a camera sliding along a long box of features, never coming back, so the
 //    factor stays banded -- the case where the size can grow to 50,000 variables.
 // Each benchmark loads its frames with deferred recovery (one factorisation), then times
-// ordinary AddPose calls, each one a full EIF update + recovery.
+// ordinary AddPose calls, each one a full EIF update + recovery. Up to 400 poses the filter
+// factors through its dense pose Schur complement (InformationFilterOptions::
+// max_dense_pose_dim); the _SparseOnly variants time the sparse CHOLMOD factor instead.
 //
 // Run: build with -DIESLAM_BUILD_BENCHMARKS=ON, then
 //   ieslam_bench --benchmark_filter=InformationFilter
