@@ -38,6 +38,8 @@ bool InformationFilterOptions::Check(std::string* why) const {
     reason << "min_depth_m must be positive, got " << min_depth_m;
   } else if (!(spare_capacity >= 0.0) || !std::isfinite(spare_capacity)) {
     reason << "spare_capacity must be >= 0 and finite, got " << spare_capacity;
+  } else if (max_dense_pose_dim < 0) {
+    reason << "max_dense_pose_dim must be >= 0, got " << max_dense_pose_dim;
   }
   if (why != nullptr) *why = reason.str();
   return reason.str().empty();
@@ -92,6 +94,7 @@ InformationFilter::InformationFilter(const InformationFilterOptions& options,
   std::string why;
   if (!options_.Check(&why)) throw ConfigError("InformationFilterOptions: " + why);
   cholesky_ = std::make_unique<SparseCholesky>(options_.ordering, options_.spare_capacity);
+  if (options_.max_dense_pose_dim >= 6) schur_ = std::make_unique<PoseSchurFactor>();
 }
 
 InformationFilter::~InformationFilter() = default;
@@ -227,14 +230,39 @@ void InformationFilter::Update(int frame_id, const Vector6d& T_w_c,
   info_vector_.tail<6>() = lin.i_p + prior * T_w_c;
   timings_.linearize_s = SecondsSince(start);
 
+  // Past the dense limit the sparse factor takes over for good (its first Update refuses
+  // and it factorises the whole matrix).
+  if (schur_ != nullptr && 6 * (num_poses() + 1) > options_.max_dense_pose_dim) schur_.reset();
   std::vector<DiagonalIncrement> increments;
-  for (int b = 0; b < lin.num_known; ++b) {
-    increments.push_back({feature_offset_.at(lin.blocks[b].feature_id), lin.blocks[b].I_ff});
+  std::vector<SchurObservation> schur_observations;
+  for (int b = 0; b < static_cast<int>(lin.blocks.size()); ++b) {
+    const Linearization::Block& block = lin.blocks[b];
+    const int offset = block.is_new ? old_dim + 3 * (b - lin.num_known)
+                                    : feature_offset_.at(block.feature_id);
+    if (!block.is_new) increments.push_back({offset, block.I_ff});
+    if (schur_ != nullptr) {
+      schur_observations.push_back({offset, block.is_new, block.I_ff, block.I_pf});
+    }
+  }
+  const auto restore = [&]() {
+    matrix_.Truncate(old_dim);
+    for (const auto& [offset, block] : saved_blocks) matrix_.SetDiagonalBlock(offset, block);
+    info_vector_ = saved_info_vector;
+  };
+  const std::string not_positive_definite =
+      "adding " + FrameName(frame_id) +
+      " makes the information matrix not positive definite (degenerate observations?)";
+  if (schur_ != nullptr) {
+    const Matrix6d I_pp = lin.I_pp + prior * Matrix6d::Identity();
+    if (!schur_->AddPose(new_dim - 6, I_pp, schur_observations, !defer_recovery_)) {
+      restore();
+      throw DataError(not_positive_definite);
+    }
   }
   if (defer_recovery_) {
     // The state grows by the new variables at their initial values; no factorisation
     // (the factor only notes which variables the update touched, for its next ordering).
-    cholesky_->NoteUpdate(old_dim, increments);
+    if (schur_ == nullptr) cholesky_->NoteUpdate(old_dim, increments);
     state_.conservativeResize(new_dim);
     for (int b = lin.num_known; b < static_cast<int>(lin.blocks.size()); ++b) {
       state_.segment<3>(old_dim + 3 * (b - lin.num_known)) = lin.blocks[b].p_w;
@@ -246,21 +274,28 @@ void InformationFilter::Update(int frame_id, const Vector6d& T_w_c,
     timings_.total_s = SecondsSince(start);
     return;
   }
+  if (schur_ != nullptr) {
+    timings_.analyze_s = 0.0;
+    timings_.factorize_s = SecondsSince(start) - timings_.linearize_s;
+    Register(lin, frame_id, old_dim, new_dim);
+    const auto solve_start = std::chrono::steady_clock::now();
+    state_ = schur_->Solve(info_vector_);  // eq. 10: I X = i
+    recovery_pending_ = false;
+    timings_.solve_s = SecondsSince(solve_start);
+    timings_.total_s = SecondsSince(start);
+    return;
+  }
   // In place when the factor has room (the re-observed features' blocks are a low-rank
   // update, the new variables new rows), else a fresh ordering and factorisation.
   if (!cholesky_->Update(matrix_, old_dim, increments) &&
       !cholesky_->Factorize(matrix_, /*pattern_changed=*/true)) {
-    matrix_.Truncate(old_dim);
-    for (const auto& [offset, block] : saved_blocks) matrix_.SetDiagonalBlock(offset, block);
-    info_vector_ = saved_info_vector;
+    restore();
     // A failed in-place update leaves no factor; Factorize keeps the old one otherwise.
     // (With deferred frames pending there was no factor of the old matrix to restore.)
     if (!cholesky_->valid() && old_dim > 0 && !recovery_pending_) {
       CHECK(cholesky_->Factorize(matrix_, true)) << "the old matrix refactors";
     }
-    throw DataError("adding " + FrameName(frame_id) +
-                    " makes the information matrix not positive definite (degenerate "
-                    "observations?)");
+    throw DataError(not_positive_definite);
   }
   timings_.analyze_s = cholesky_->timings().analyze_s;
   timings_.factorize_s = cholesky_->timings().factorize_s;
@@ -286,14 +321,20 @@ void InformationFilter::Register(const Linearization& lin, int frame_id, int old
 void InformationFilter::Recover() {
   if (!recovery_pending_) return;
   const auto start = std::chrono::steady_clock::now();
-  if (!cholesky_->Factorize(matrix_, /*pattern_changed=*/true)) {
+  if (schur_ != nullptr ? !schur_->Refactor()
+                        : !cholesky_->Factorize(matrix_, /*pattern_changed=*/true)) {
     throw DataError("the deferred frames (last: " + FrameName(frame_ids_.back()) +
                     ") make the information matrix not positive definite");
   }
-  timings_.analyze_s = cholesky_->timings().analyze_s;
-  timings_.factorize_s = cholesky_->timings().factorize_s;
+  timings_.analyze_s = schur_ != nullptr ? 0.0 : cholesky_->timings().analyze_s;
+  timings_.factorize_s =
+      schur_ != nullptr ? SecondsSince(start) : cholesky_->timings().factorize_s;
   const auto solve_start = std::chrono::steady_clock::now();
-  state_ = cholesky_->Solve(info_vector_);
+  if (schur_ != nullptr) {
+    state_ = schur_->Solve(info_vector_);
+  } else {
+    state_ = cholesky_->Solve(info_vector_);
+  }
   recovery_pending_ = false;
   timings_.linearize_s = 0.0;
   timings_.solve_s = SecondsSince(solve_start);
@@ -333,7 +374,7 @@ Eigen::SparseMatrix<double> InformationFilter::Information() const { return matr
 
 double InformationFilter::LogDetInformation() const {
   CheckRecovered();
-  return cholesky_->LogDet();
+  return schur_ != nullptr ? schur_->LogDet() : cholesky_->LogDet();
 }
 
 std::vector<int> InformationFilter::ScalarIndices(const std::vector<VariableRef>& variables) const {
@@ -349,7 +390,9 @@ std::vector<int> InformationFilter::ScalarIndices(const std::vector<VariableRef>
 Eigen::MatrixXd InformationFilter::MarginalCovariance(
     const std::vector<VariableRef>& variables) const {
   CheckRecovered();
-  return cholesky_->InverseSubmatrix(ScalarIndices(variables));
+  const std::vector<int> indices = ScalarIndices(variables);
+  return schur_ != nullptr ? schur_->InverseSubmatrix(indices)
+                           : cholesky_->InverseSubmatrix(indices);
 }
 
 Matrix6d InformationFilter::PoseCovariance(int frame_id) const {

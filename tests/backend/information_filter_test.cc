@@ -82,9 +82,24 @@ Vector6d Perturb(const Vector6d& pose, double metres, double radians, std::mt199
   return perturbed;
 }
 
-InformationFilterOptions DefaultOptions() { return InformationFilterOptions(); }
+// Every test runs on both factorisations: the sparse one (max_dense_pose_dim 0) and the
+// dense pose Schur complement.
+class InformationFilterTest : public ::testing::TestWithParam<int> {
+ protected:
+  InformationFilterOptions DefaultOptions() const {
+    InformationFilterOptions options;
+    options.max_dense_pose_dim = GetParam();
+    return options;
+  }
+};
 
-TEST(InformationFilterTest, OptionsCheckRejectsBadValues) {
+INSTANTIATE_TEST_SUITE_P(Factorisations, InformationFilterTest, ::testing::Values(0, 2400),
+                         [](const ::testing::TestParamInfo<int>& info) {
+                           return info.param == 0 ? std::string("Sparse")
+                                                  : std::string("PoseSchur");
+                         });
+
+TEST_P(InformationFilterTest, OptionsCheckRejectsBadValues) {
   InformationFilterOptions options;
   std::string why;
   EXPECT_TRUE(options.Check(&why)) << why;
@@ -97,7 +112,7 @@ TEST(InformationFilterTest, OptionsCheckRejectsBadValues) {
   EXPECT_THROW(InformationFilter(options, TestCamera()), ConfigError);
 }
 
-TEST(InformationFilterTest, NoiseFreeObservationsRecoverTheExactScene) {
+TEST_P(InformationFilterTest, NoiseFreeObservationsRecoverTheExactScene) {
   std::mt19937 rng(1);
   const Scene scene = MakeScene(8, 60, &rng);
   InformationFilter filter(DefaultOptions(), scene.camera);
@@ -119,7 +134,7 @@ TEST(InformationFilterTest, NoiseFreeObservationsRecoverTheExactScene) {
   EXPECT_EQ(filter.num_features(), seen);
 }
 
-TEST(InformationFilterTest, LinearisedUpdateCorrectsAPerturbedInitialPose) {
+TEST_P(InformationFilterTest, LinearisedUpdateCorrectsAPerturbedInitialPose) {
   // Only one linearisation per pose (eq. 9), so the correction is first order: a 2 mm /
   // 1 mrad registration error leaves a residual error two orders of magnitude smaller.
   std::mt19937 rng(2);
@@ -135,7 +150,7 @@ TEST(InformationFilterTest, LinearisedUpdateCorrectsAPerturbedInitialPose) {
   }
 }
 
-TEST(InformationFilterTest, IdsAreStableAndStateIndicesConsistent) {
+TEST_P(InformationFilterTest, IdsAreStableAndStateIndicesConsistent) {
   std::mt19937 rng(3);
   const Scene scene = MakeScene(5, 50, &rng);
   InformationFilter filter(DefaultOptions(), scene.camera);
@@ -163,7 +178,7 @@ TEST(InformationFilterTest, IdsAreStableAndStateIndicesConsistent) {
   EXPECT_EQ(std::count(covered.begin(), covered.end(), 1), filter.state_dim());
 }
 
-TEST(InformationFilterTest, TooFewKnownFeaturesFailsCleanly) {
+TEST_P(InformationFilterTest, TooFewKnownFeaturesFailsCleanly) {
   std::mt19937 rng(4);
   const Scene scene = MakeScene(3, 50, &rng);
   InformationFilter filter(DefaultOptions(), scene.camera);
@@ -207,7 +222,7 @@ TEST(InformationFilterTest, TooFewKnownFeaturesFailsCleanly) {
   EXPECT_LT((filter.pose(scene.frame_ids[2]) - scene.poses[2]).norm(), 1e-6);
 }
 
-TEST(InformationFilterTest, InformationMatrixCouplesPosesOnlyThroughFeatures) {
+TEST_P(InformationFilterTest, InformationMatrixCouplesPosesOnlyThroughFeatures) {
   std::mt19937 rng(5);
   const Scene scene = MakeScene(4, 40, &rng);
   InformationFilter filter(DefaultOptions(), scene.camera);
@@ -249,7 +264,7 @@ double RelativeDifference(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
   return (a - b).norm() / b.norm();
 }
 
-TEST(InformationFilterTest, AgreesWithTheDenseReferenceFilter) {
+TEST_P(InformationFilterTest, AgreesWithTheDenseReferenceFilter) {
   for (const unsigned seed : {6u, 7u, 8u}) {
     std::mt19937 rng(seed);
     const int num_poses = 5 + static_cast<int>(seed % 3) * 2;
@@ -284,8 +299,34 @@ TEST(InformationFilterTest, AgreesWithTheDenseReferenceFilter) {
   }
 }
 
+// Past max_dense_pose_dim the sparse factor takes over in the middle of a run; the filter
+// stays the dense one.
+TEST_P(InformationFilterTest, SwitchingFactorisationMidwayChangesNothing) {
+  std::mt19937 rng(21);
+  const int num_poses = 8;
+  const Scene scene = MakeScene(num_poses, 60, &rng);
+  InformationFilterOptions options = DefaultOptions();
+  options.max_dense_pose_dim = 24;  // four poses
+  InformationFilter filter(options, scene.camera);
+  testing::DenseReferenceFilter dense(options.anchor_information, scene.camera);
+  RunBoth(scene, 4, &rng, &filter, &dense);
+  EXPECT_TRUE(filter.uses_pose_schur());
+  for (int i = 4; i < num_poses; ++i) {
+    const std::vector<FeatureObservation> observations = Observe(scene, i, true, &rng);
+    const Vector6d initial = Perturb(scene.poses[i], 0.02, 0.01, &rng);
+    filter.AddPose(scene.frame_ids[i], initial, observations);
+    dense.AddPose(scene.frame_ids[i], initial, observations);
+  }
+  EXPECT_FALSE(filter.uses_pose_schur());
+  for (int id : filter.frame_ids()) {
+    EXPECT_LT((filter.pose(id) - dense.pose(id)).norm(), 1e-9) << "frame " << id;
+  }
+  EXPECT_NEAR(filter.LogDetInformation(), dense.LogDetInformation(),
+              1e-9 * std::abs(dense.LogDetInformation()));
+}
+
 // Candidates: the next poses of the scene, seen from perturbed registrations.
-TEST(InformationFilterTest, FastGainEqualsLogDetOfTheExpandedMatrix) {
+TEST_P(InformationFilterTest, FastGainEqualsLogDetOfTheExpandedMatrix) {
   for (const unsigned seed : {9u, 10u, 11u, 12u}) {
     std::mt19937 rng(seed);
     const int num_poses = 9;
@@ -328,7 +369,7 @@ TEST(InformationFilterTest, FastGainEqualsLogDetOfTheExpandedMatrix) {
   }
 }
 
-TEST(InformationFilterTest, GainIsMinusInfinityWhenThePoseIsUndetermined) {
+TEST_P(InformationFilterTest, GainIsMinusInfinityWhenThePoseIsUndetermined) {
   std::mt19937 rng(13);
   const Scene scene = MakeScene(3, 50, &rng);
   InformationFilter filter(DefaultOptions(), scene.camera);
@@ -346,7 +387,7 @@ TEST(InformationFilterTest, GainIsMinusInfinityWhenThePoseIsUndetermined) {
             -std::numeric_limits<double>::infinity());
 }
 
-TEST(InformationFilterTest, OptionsCheckRejectsANegativeSpareCapacity) {
+TEST_P(InformationFilterTest, OptionsCheckRejectsANegativeSpareCapacity) {
   InformationFilterOptions options;
   options.spare_capacity = -0.1;
   std::string why;
@@ -357,7 +398,7 @@ TEST(InformationFilterTest, OptionsCheckRejectsANegativeSpareCapacity) {
 // In-place updates of the factor and the ordering are a matter of speed only: a full
 // factorisation at every update, updates in place (new variables in spare slots), and
 // every ordering method give the same filter, and that filter is the dense one.
-TEST(InformationFilterTest, InPlaceUpdatesAndOrderingDoNotChangeTheResult) {
+TEST_P(InformationFilterTest, InPlaceUpdatesAndOrderingDoNotChangeTheResult) {
   std::mt19937 rng(14);
   const int num_poses = 9;
   const Scene scene = MakeScene(num_poses, 70, &rng);
@@ -376,8 +417,10 @@ TEST(InformationFilterTest, InPlaceUpdatesAndOrderingDoNotChangeTheResult) {
     InformationFilterOptions options;
     options.ordering = variant.ordering;
     options.spare_capacity = variant.spare_capacity;
+    options.max_dense_pose_dim = 0;
     filters.push_back(std::make_unique<InformationFilter>(options, scene.camera));
   }
+  filters.push_back(std::make_unique<InformationFilter>(DefaultOptions(), scene.camera));
   testing::DenseReferenceFilter dense(DefaultOptions().anchor_information, scene.camera);
   const std::vector<FeatureObservation> first = Observe(scene, 0, true, &rng);
   for (auto& filter : filters) filter->AddFirstPose(scene.frame_ids[0], scene.poses[0], first);
@@ -402,7 +445,7 @@ TEST(InformationFilterTest, InPlaceUpdatesAndOrderingDoNotChangeTheResult) {
   }
 }
 
-TEST(InformationFilterTest, SameInputsGiveABitIdenticalState) {
+TEST_P(InformationFilterTest, SameInputsGiveABitIdenticalState) {
   std::mt19937 rng_a(15), rng_b(15);
   const Scene scene = MakeScene(7, 60, &rng_a);
   MakeScene(7, 60, &rng_b);
@@ -416,7 +459,7 @@ TEST(InformationFilterTest, SameInputsGiveABitIdenticalState) {
 
 // The joint covariance of every feature at once (the forward-solve formula, with the rows
 // outside the elimination paths dropped) against the dense inverse.
-TEST(InformationFilterTest, JointCovarianceOfAllFeaturesMatchesTheDenseInverse) {
+TEST_P(InformationFilterTest, JointCovarianceOfAllFeaturesMatchesTheDenseInverse) {
   std::mt19937 rng(16);
   const Scene scene = MakeScene(7, 60, &rng);
   InformationFilter sparse(DefaultOptions(), scene.camera);
@@ -438,7 +481,7 @@ TEST(InformationFilterTest, JointCovarianceOfAllFeaturesMatchesTheDenseInverse) 
 
 // Deferred recovery (batch loading) with exact linearisation points gives the step-by-step
 // filter: noise-free observations at the true poses linearise both at the truth.
-TEST(InformationFilterTest, DeferredRecoveryMatchesStepByStepAtExactLinearisationPoints) {
+TEST_P(InformationFilterTest, DeferredRecoveryMatchesStepByStepAtExactLinearisationPoints) {
   std::mt19937 rng(17);
   const Scene scene = MakeScene(6, 60, &rng);
   InformationFilter step(DefaultOptions(), scene.camera), batch(DefaultOptions(), scene.camera);

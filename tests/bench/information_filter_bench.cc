@@ -10,7 +10,9 @@
 //  - a corridor: a camera sliding along a long box of features, never coming back, so the
 //    factor stays banded -- the case where the size can grow to 50,000 variables.
 // Each benchmark loads its frames with deferred recovery (one factorisation), then times
-// ordinary AddPose calls, each one a full EIF update + recovery.
+// ordinary AddPose calls, each one a full EIF update + recovery. Up to 400 poses the filter
+// factors through its dense pose Schur complement (InformationFilterOptions::
+// max_dense_pose_dim); the _SparseOnly variants time the sparse CHOLMOD factor instead.
 //
 // Run: build with -DIESLAM_BUILD_BENCHMARKS=ON, then
 //   ieslam_bench --benchmark_filter=InformationFilter
@@ -101,9 +103,10 @@ constexpr int kWarmUpdates = 8;
 // Times `state.iterations()` AddPose calls ending at frame `end`. The first frames are
 // loaded in one go, then kWarmUpdates untimed updates bring the factor to its usual state
 // between two full factorisations (recent variables last, updated in place).
-void TimeUpdates(const Problem& problem, int end, benchmark::State& state) {
+void TimeUpdates(const Problem& problem, int end, benchmark::State& state,
+                 const InformationFilterOptions& options = InformationFilterOptions()) {
   const int timed = static_cast<int>(state.max_iterations);
-  InformationFilter filter(InformationFilterOptions(), problem.camera);
+  InformationFilter filter(options, problem.camera);
   Load(problem, end - timed - kWarmUpdates, &filter);
   int next = end - timed - kWarmUpdates;
   for (; next < end - timed; ++next) AddNext(problem, next, &filter);
@@ -122,6 +125,14 @@ void TimeUpdates(const Problem& problem, int end, benchmark::State& state) {
   state.counters["analyze_ms"] = 1e3 * analyze / n;
   state.counters["factorize_ms"] = 1e3 * factorize / n;
   state.counters["solve_ms"] = 1e3 * solve / n;
+  state.counters["dense_schur"] = filter.uses_pose_schur() ? 1 : 0;
+}
+
+// The sparse factor only (no dense pose Schur complement), for comparison.
+InformationFilterOptions SparseOnly() {
+  InformationFilterOptions options;
+  options.max_dense_pose_dim = 0;
+  return options;
 }
 
 constexpr int kTimedUpdates = 4;
@@ -135,6 +146,13 @@ void BM_InformationFilterUpdate_PaperLoops7275(benchmark::State& state) {
 BENCHMARK(BM_InformationFilterUpdate_PaperLoops7275)
     ->Iterations(kTimedUpdates)->Unit(benchmark::kMillisecond);
 
+void BM_InformationFilterUpdate_PaperLoops7275_SparseOnly(benchmark::State& state) {
+  static const Problem problem = PaperProblem(4000);
+  TimeUpdates(problem, static_cast<int>(problem.poses.size()), state, SparseOnly());
+}
+BENCHMARK(BM_InformationFilterUpdate_PaperLoops7275_SparseOnly)
+    ->Iterations(kTimedUpdates)->Unit(benchmark::kMillisecond);
+
 // The corridor at ~7,275, ~19,000 and ~50,000 state dimensions (~19 a pose).
 void BM_InformationFilterUpdate_Corridor(benchmark::State& state) {
   const int poses = static_cast<int>(state.range(0));
@@ -145,6 +163,14 @@ BENCHMARK(BM_InformationFilterUpdate_Corridor)
     ->Arg(382)->Arg(1000)->Arg(2620)
     ->Iterations(kTimedUpdates)
     ->Unit(benchmark::kMillisecond);
+
+void BM_InformationFilterUpdate_Corridor_SparseOnly(benchmark::State& state) {
+  const int poses = static_cast<int>(state.range(0));
+  const Problem problem = CorridorProblem(poses);
+  TimeUpdates(problem, poses, state, SparseOnly());
+}
+BENCHMARK(BM_InformationFilterUpdate_Corridor_SparseOnly)
+    ->Arg(382)->Iterations(kTimedUpdates)->Unit(benchmark::kMillisecond);
 
 // Growth with the number of poses on the paper's simulation (2,000 features): the update
 // at pose N, for N = 50 ... 300.
@@ -157,10 +183,10 @@ BENCHMARK(BM_InformationFilterUpdate_PaperGrowth)
 
 // All 300 frames of the paper's simulation through the filter, one update each: the
 // all-frames row of `ieslam simulate`.
-void BM_InformationFilter_PaperAllFrames(benchmark::State& state) {
+void PaperAllFrames(benchmark::State& state, const InformationFilterOptions& options) {
   static const Problem problem = PaperProblem(2000);
   for (auto _ : state) {
-    InformationFilter filter(InformationFilterOptions(), problem.camera);
+    InformationFilter filter(options, problem.camera);
     filter.AddFirstPose(0, problem.poses[0], problem.observations[0]);
     for (size_t i = 1; i < problem.poses.size(); ++i) {
       filter.AddPose(static_cast<int>(i), problem.poses[i], problem.observations[i]);
@@ -169,7 +195,17 @@ void BM_InformationFilter_PaperAllFrames(benchmark::State& state) {
     state.counters["factor_nnz"] = static_cast<double>(filter.FactorNonzeros());
   }
 }
+
+void BM_InformationFilter_PaperAllFrames(benchmark::State& state) {
+  PaperAllFrames(state, InformationFilterOptions());
+}
 BENCHMARK(BM_InformationFilter_PaperAllFrames)->Iterations(1)->Unit(benchmark::kSecond);
+
+void BM_InformationFilter_PaperAllFrames_SparseOnly(benchmark::State& state) {
+  PaperAllFrames(state, SparseOnly());
+}
+BENCHMARK(BM_InformationFilter_PaperAllFrames_SparseOnly)
+    ->Iterations(1)->Unit(benchmark::kSecond);
 
 // The joint covariance of 150 features seen by the last frames: what the selector recovers
 // once per look-ahead buffer. After all 300 frames of the paper's simulation (dense: the

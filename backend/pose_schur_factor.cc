@@ -1,0 +1,406 @@
+#include "backend/pose_schur_factor.h"
+
+#include <algorithm>
+#include <cmath>
+#include <utility>
+
+#include <Eigen/Cholesky>
+#include <glog/logging.h>
+
+namespace ieslam {
+
+namespace {
+
+using Matrix63 = Eigen::Matrix<double, 6, 3>;
+
+// F^-1 for a symmetric positive definite 3x3 F, exactly symmetric.
+Eigen::Matrix3d SymmetricInverse(const Eigen::Matrix3d& F) {
+  Eigen::Matrix3d inverse = F.llt().solve(Eigen::Matrix3d::Identity());
+  return 0.5 * (inverse + inverse.transpose());
+}
+
+// Lower Cholesky factor of T in place; false unless T is positive definite.
+bool FactorInPlace(Eigen::MatrixXd* T) {
+  if (T->rows() == 0) return true;
+  Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>> llt(*T);
+  if (llt.info() != Eigen::Success) return false;
+  const auto diagonal = T->diagonal();
+  return diagonal.allFinite() && diagonal.minCoeff() > 0.0;
+}
+
+}  // namespace
+
+PoseSchurFactor::PoseSchurFactor(const PoseSchurOptions& options) : options_(options) {
+  CHECK_GE(options_.prefetch, 0);
+  CHECK_GE(options_.evict_after, 1);
+}
+
+void PoseSchurFactor::Grow(int n) {
+  if (S_.rows() >= n) return;
+  // Room for 100 more poses: a copy every 100 poses, and little memory wasted.
+  const int capacity = n + 600;
+  S_.conservativeResize(capacity, capacity);
+  L_.conservativeResize(capacity, capacity);
+}
+
+bool PoseSchurFactor::AddPose(int pose_offset, const Eigen::Matrix<double, 6, 6>& I_pp,
+                              const std::vector<SchurObservation>& observations,
+                              bool refactor) {
+  CHECK_EQ(pose_of_offset_.count(pose_offset), 0u) << "pose offset " << pose_offset << " taken";
+  const int k = num_poses();
+  const int old_n = dim();
+  // The poses whose Schur blocks change: every pose that saw a re-observed feature.
+  std::vector<int> touched;
+  for (const SchurObservation& obs : observations) {
+    if (obs.is_new) continue;
+    const auto it = feature_of_offset_.find(obs.feature_offset);
+    CHECK(it != feature_of_offset_.end()) << "no feature at offset " << obs.feature_offset;
+    const Feature& feature = features_[it->second];
+    touched.insert(touched.end(), feature.poses.begin(), feature.poses.end());
+  }
+  std::sort(touched.begin(), touched.end());
+  touched.erase(std::unique(touched.begin(), touched.end()), touched.end());
+  const int t = static_cast<int>(touched.size());
+  std::vector<int> local(k, -1);
+  for (int i = 0; i < t; ++i) local[touched[i]] = i;
+
+  // D: the change of S on the touched poses and the new pose's row (local block t).
+  Eigen::MatrixXd D = Eigen::MatrixXd::Zero(6 * (t + 1), 6 * (t + 1));
+  D.bottomRightCorner<6, 6>() = I_pp;
+  struct Saved {
+    int index;
+    Eigen::Matrix3d F, F_inv;
+    double log_det;
+  };
+  std::vector<Saved> saved;
+  std::vector<Eigen::Matrix3d> new_inverse(observations.size());
+  for (size_t o = 0; o < observations.size(); ++o) {
+    const SchurObservation& obs = observations[o];
+    const Matrix63& G = obs.I_pf;
+    if (obs.is_new) {
+      new_inverse[o] = SymmetricInverse(obs.I_ff);
+      D.bottomRightCorner<6, 6>() -= G * new_inverse[o] * G.transpose();
+      continue;
+    }
+    const int index = feature_of_offset_.at(obs.feature_offset);
+    const Feature& feature = features_[index];
+    const Eigen::Matrix3d F_inv_new = SymmetricInverse(feature.F + obs.I_ff);
+    new_inverse[o] = F_inv_new;
+    // F^-1 - F'^-1 = F^-1 A F'^-1 without the cancellation of the difference.
+    Eigen::Matrix3d M = feature.F_inv * obs.I_ff * F_inv_new;
+    M = 0.5 * (M + M.transpose());
+    const int p = static_cast<int>(feature.poses.size());
+    std::vector<Eigen::Matrix<double, 3, 6>> MBt(p);
+    for (int a = 0; a < p; ++a) MBt[a] = M * feature.couplings[a].transpose();
+    for (int a = 0; a < p; ++a) {
+      const int la = local[feature.poses[a]];
+      for (int b = 0; b < p; ++b) {
+        const int lb = local[feature.poses[b]];
+        if (lb < la) continue;
+        D.block<6, 6>(6 * la, 6 * lb).noalias() += feature.couplings[a] * MBt[b];
+      }
+      D.block<6, 6>(6 * la, 6 * t).noalias() -= feature.couplings[a] * F_inv_new * G.transpose();
+    }
+    D.bottomRightCorner<6, 6>() -= G * F_inv_new * G.transpose();
+  }
+  D.triangularView<Eigen::StrictlyLower>() = D.transpose();
+
+  // Apply to S and the features, keeping what a failure has to restore.
+  std::vector<int> scalar;  // S rows of the touched poses
+  for (const int pose : touched) {
+    for (int c = 0; c < 6; ++c) scalar.push_back(6 * pose + c);
+  }
+  const Eigen::MatrixXd S_saved = S_(scalar, scalar);
+  Grow(old_n + 6);
+  S_(scalar, scalar) += D.topLeftCorner(6 * t, 6 * t);
+  S_.block(0, old_n, old_n, 6).setZero();
+  S_.block(old_n, 0, 6, old_n).setZero();
+  S_(scalar, Eigen::seqN(old_n, 6)) = D.topRightCorner(6 * t, 6);
+  S_(Eigen::seqN(old_n, 6), scalar) = D.bottomLeftCorner(6, 6 * t);
+  S_.block<6, 6>(old_n, old_n) = D.bottomRightCorner<6, 6>();
+  const int old_features = static_cast<int>(features_.size());
+  for (size_t o = 0; o < observations.size(); ++o) {
+    const SchurObservation& obs = observations[o];
+    int index;
+    if (obs.is_new) {
+      index = static_cast<int>(features_.size());
+      features_.emplace_back();
+      features_.back().offset = obs.feature_offset;
+      feature_of_offset_[obs.feature_offset] = index;
+    } else {
+      index = feature_of_offset_.at(obs.feature_offset);
+      const Feature& old = features_[index];
+      saved.push_back({index, old.F, old.F_inv, old.log_det});
+    }
+    Feature& feature = features_[index];
+    feature.F += obs.I_ff;
+    feature.F_inv = new_inverse[o];
+    feature.log_det = 2.0 * feature.F.llt().matrixLLT().diagonal().array().log().sum();
+    feature.poses.push_back(k);
+    feature.couplings.push_back(obs.I_pf);
+  }
+  pose_offsets_.push_back(pose_offset);
+  pose_of_offset_[pose_offset] = k;
+  const std::vector<int> saved_touched = last_touched_;
+  for (const int pose : touched) last_touched_[pose] = updates_;
+  last_touched_.push_back(updates_);
+  ++updates_;
+
+  bool ok = true;
+  if (!refactor) {
+    valid_ = false;
+  } else if (!valid_) {
+    ok = Refactor();
+  } else {
+    // Window positions: evicted poses first, then the ones kept, then anything moved in
+    // from the leading part, then the new pose.
+    const int lead = window_start_;
+    std::vector<int> evicted, kept, moved;
+    for (int q = lead; q < static_cast<int>(order_.size()); ++q) {
+      const int pose = order_[q];
+      (last_touched_[pose] + options_.evict_after <= updates_ ? evicted : kept).push_back(pose);
+    }
+    std::vector<char> move(k, 0);
+    for (const int pose : touched) {
+      if (position_[pose] >= lead) continue;
+      for (int q = std::max(0, pose - options_.prefetch);
+           q <= std::min(k - 1, pose + options_.prefetch); ++q) {
+        move[q] = position_[q] < lead;
+      }
+    }
+    int first = lead;
+    for (int q = 0; q < k; ++q) {
+      if (move[q]) first = std::min(first, position_[q]);
+    }
+    std::vector<int> order(order_.begin(), order_.begin() + first);
+    for (int q = first; q < lead; ++q) {
+      if (!move[order_[q]]) order.push_back(order_[q]);
+    }
+    for (int q = 0; q < k; ++q) {
+      if (move[q]) moved.push_back(q);
+    }
+    order.insert(order.end(), evicted.begin(), evicted.end());
+    const int window_start = static_cast<int>(order.size());
+    order.insert(order.end(), kept.begin(), kept.end());
+    order.insert(order.end(), moved.begin(), moved.end());
+    order.push_back(k);
+    if (first == lead) {
+      // The trailing block is C plus the change, in the new window order.
+      const int m = 6 * (k + 1 - lead);
+      Eigen::MatrixXd T = Eigen::MatrixXd::Zero(m, m);
+      std::vector<int> from(m);  // new window row -> old C row (-1: the new pose)
+      for (int q = lead; q <= k; ++q) {
+        const int old_q = order[q] == k ? -1 : position_[order[q]] - lead;
+        for (int c = 0; c < 6; ++c) from[6 * (q - lead) + c] = old_q < 0 ? -1 : 6 * old_q + c;
+      }
+      std::vector<int> rows, old_rows;
+      for (int r = 0; r < m; ++r) {
+        if (from[r] >= 0) {
+          rows.push_back(r);
+          old_rows.push_back(from[r]);
+        }
+      }
+      T(rows, rows) = C_(old_rows, old_rows);
+      std::vector<int> d_rows(m);  // new window row -> row of D (-1: untouched)
+      for (int q = lead; q <= k; ++q) {
+        const int pose = order[q];
+        const int l = pose == k ? t : local[pose];
+        for (int c = 0; c < 6; ++c) d_rows[6 * (q - lead) + c] = l < 0 ? -1 : 6 * l + c;
+      }
+      std::vector<int> w_rows, dd_rows;
+      for (int r = 0; r < m; ++r) {
+        if (d_rows[r] >= 0) {
+          w_rows.push_back(r);
+          dd_rows.push_back(d_rows[r]);
+        }
+      }
+      T(w_rows, w_rows) += D(dd_rows, dd_rows);
+      ok = FactorFrom(lead, order, window_start, &T);
+    } else {
+      ok = FactorFrom(first, order, window_start, nullptr);
+    }
+  }
+  if (ok) return true;
+
+  // Not positive definite: undo.
+  for (auto it = saved.rbegin(); it != saved.rend(); ++it) {
+    features_[it->index].F = it->F;
+    features_[it->index].F_inv = it->F_inv;
+    features_[it->index].log_det = it->log_det;
+  }
+  for (const SchurObservation& obs : observations) {
+    if (obs.is_new) {
+      feature_of_offset_.erase(obs.feature_offset);
+    } else {
+      Feature& feature = features_[feature_of_offset_.at(obs.feature_offset)];
+      feature.poses.pop_back();
+      feature.couplings.pop_back();
+    }
+  }
+  features_.resize(old_features);
+  pose_offsets_.pop_back();
+  pose_of_offset_.erase(pose_offset);
+  last_touched_ = saved_touched;
+  --updates_;
+  S_(scalar, scalar) = S_saved;
+  return false;
+}
+
+bool PoseSchurFactor::Refactor() {
+  const int k = num_poses();
+  std::vector<int> lead, window;
+  for (int q = 0; q < k; ++q) {
+    (last_touched_[q] + options_.evict_after <= updates_ ? lead : window).push_back(q);
+  }
+  std::vector<int> order = lead;
+  order.insert(order.end(), window.begin(), window.end());
+  return FactorFrom(0, order, static_cast<int>(lead.size()), nullptr);
+}
+
+bool PoseSchurFactor::FactorFrom(int first, const std::vector<int>& order, int window_start,
+                                 const Eigen::MatrixXd* trailing) {
+  const int n = dim();
+  const int f6 = 6 * first, w6 = 6 * window_start;
+  std::vector<int> rows;  // S rows of the positions from `first`, in the new order
+  for (int q = first; q < static_cast<int>(order.size()); ++q) {
+    for (int c = 0; c < 6; ++c) rows.push_back(6 * order[q] + c);
+  }
+  // The unchanged leading columns of L, rows moved to their new positions.
+  Eigen::MatrixXd L_lead = Eigen::MatrixXd::Zero(n - f6, f6);
+  if (f6 > 0) {
+    for (int q = first; q < static_cast<int>(order.size()); ++q) {
+      const int pose = order[q];
+      if (pose >= static_cast<int>(position_.size())) continue;  // new: no coupling before
+      L_lead.middleRows<6>(6 * (q - first)) = L_.block(6 * position_[pose], 0, 6, f6);
+    }
+  }
+  Eigen::MatrixXd T;
+  if (trailing != nullptr) {
+    T = *trailing;
+  } else {
+    T = S_(rows, rows);
+    if (f6 > 0) T.selfadjointView<Eigen::Lower>().rankUpdate(L_lead, -1.0);
+  }
+  // Factor the part before the window, then the window's Schur complement C.
+  const int a = w6 - f6, m = n - w6;
+  Eigen::MatrixXd L11 = T.topLeftCorner(a, a);
+  if (!FactorInPlace(&L11)) return false;
+  Eigen::MatrixXd L21 = T.bottomLeftCorner(m, a);
+  L11.triangularView<Eigen::Lower>().transpose().solveInPlace<Eigen::OnTheRight>(L21);
+  Eigen::MatrixXd C = T.bottomRightCorner(m, m);
+  if (a > 0) C.selfadjointView<Eigen::Lower>().rankUpdate(L21, -1.0);
+  C.triangularView<Eigen::StrictlyUpper>() = C.transpose();
+  Eigen::MatrixXd L22 = C;
+  if (!FactorInPlace(&L22)) return false;
+
+  // Commit.
+  Grow(n);
+  L_.block(f6, 0, n - f6, f6) = L_lead;
+  L_.block(f6, f6, a, a) = L11.triangularView<Eigen::Lower>();
+  L_.block(w6, f6, m, a) = L21;
+  L_.block(w6, w6, m, m) = L22.triangularView<Eigen::Lower>();
+  order_ = order;
+  position_.assign(order.size(), -1);
+  for (int q = 0; q < static_cast<int>(order.size()); ++q) position_[order[q]] = q;
+  window_start_ = window_start;
+  C_ = std::move(C);
+  valid_ = true;
+  return true;
+}
+
+Eigen::VectorXd PoseSchurFactor::Solve(const Eigen::VectorXd& info_vector) const {
+  CHECK(valid_) << "no valid factor";
+  const int n = dim();
+  Eigen::VectorXd b(n);  // in factor positions
+  for (int pose = 0; pose < num_poses(); ++pose) {
+    b.segment<6>(6 * position_[pose]) = info_vector.segment<6>(pose_offsets_[pose]);
+  }
+  std::vector<Eigen::Vector3d> y(features_.size());
+  for (size_t index = 0; index < features_.size(); ++index) {
+    const Feature& feature = features_[index];
+    y[index] = feature.F_inv * info_vector.segment<3>(feature.offset);
+    for (size_t e = 0; e < feature.poses.size(); ++e) {
+      b.segment<6>(6 * position_[feature.poses[e]]) -= feature.couplings[e] * y[index];
+    }
+  }
+  const auto L = L_.topLeftCorner(n, n).triangularView<Eigen::Lower>();
+  L.solveInPlace(b);
+  L.transpose().solveInPlace(b);
+  Eigen::VectorXd x(info_vector.size());
+  for (int pose = 0; pose < num_poses(); ++pose) {
+    x.segment<6>(pose_offsets_[pose]) = b.segment<6>(6 * position_[pose]);
+  }
+  for (const Feature& feature : features_) {
+    Eigen::Vector3d r = info_vector.segment<3>(feature.offset);
+    for (size_t e = 0; e < feature.poses.size(); ++e) {
+      r -= feature.couplings[e].transpose() * b.segment<6>(6 * position_[feature.poses[e]]);
+    }
+    x.segment<3>(feature.offset) = feature.F_inv * r;
+  }
+  return x;
+}
+
+double PoseSchurFactor::LogDet() const {
+  CHECK(valid_) << "no valid factor";
+  double sum = 0.0;
+  for (const Feature& feature : features_) sum += feature.log_det;
+  return sum + 2.0 * L_.topLeftCorner(dim(), dim()).diagonal().array().log().sum();
+}
+
+Eigen::MatrixXd PoseSchurFactor::InverseSubmatrix(const std::vector<int>& indices) const {
+  CHECK(valid_) << "no valid factor";
+  const int n = dim(), k = static_cast<int>(indices.size());
+  // Each wanted scalar as (feature index or -1, pose index or -1, component).
+  std::vector<std::pair<int, int>> feature_of(k, {-1, 0});
+  Eigen::MatrixXd R = Eigen::MatrixXd::Zero(n, k);
+  int top = n;
+  for (int col = 0; col < k; ++col) {
+    const int index = indices[col];
+    bool found = false;
+    for (int c = 0; c < 3 && !found; ++c) {
+      const auto it = feature_of_offset_.find(index - c);
+      if (it == feature_of_offset_.end()) continue;
+      found = true;
+      feature_of[col] = {it->second, c};
+      const Feature& feature = features_[it->second];
+      for (size_t e = 0; e < feature.poses.size(); ++e) {
+        const int row = 6 * position_[feature.poses[e]];
+        R.col(col).segment<6>(row) = -feature.couplings[e] * feature.F_inv.col(c);
+        top = std::min(top, row);
+      }
+    }
+    for (int c = 0; c < 6 && !found; ++c) {
+      const auto it = pose_of_offset_.find(index - c);
+      if (it == pose_of_offset_.end()) continue;
+      found = true;
+      const int row = 6 * position_[it->second] + c;
+      R(row, col) = 1.0;
+      top = std::min(top, row);
+    }
+    CHECK(found) << "state index " << index << " is neither a pose nor a feature";
+  }
+  Eigen::MatrixXd result = Eigen::MatrixXd::Zero(k, k);
+  if (top < n) {
+    // Z = L^-1 R is zero above the first nonzero row of R.
+    Eigen::MatrixXd Z = R.bottomRows(n - top);
+    L_.block(top, top, n - top, n - top).triangularView<Eigen::Lower>().solveInPlace(Z);
+    result.selfadjointView<Eigen::Lower>().rankUpdate(Z.transpose());
+    result.triangularView<Eigen::StrictlyUpper>() = result.transpose();
+  }
+  for (int a = 0; a < k; ++a) {
+    for (int b = 0; b < k; ++b) {
+      if (feature_of[a].first >= 0 && feature_of[a].first == feature_of[b].first) {
+        result(a, b) += features_[feature_of[a].first].F_inv(feature_of[a].second,
+                                                             feature_of[b].second);
+      }
+    }
+  }
+  return result;
+}
+
+int64_t PoseSchurFactor::FactorNonzeros() const {
+  const int64_t n = dim();
+  return n * (n + 1) / 2 + 6 * static_cast<int64_t>(features_.size());
+}
+
+}  // namespace ieslam

@@ -1,0 +1,143 @@
+#include "backend/pose_schur_factor.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <random>
+#include <vector>
+
+#include <Eigen/Cholesky>
+#include <gtest/gtest.h>
+
+namespace ieslam {
+namespace {
+
+// A random problem in information form laid out as the filter lays it out (each pose after
+// its new features), with a trajectory that goes out and comes back twice, so that later
+// poses re-observe features of poses long left: the factor's window has to evict poses and
+// move them back in. `dense` mirrors every addition.
+struct RandomProblem {
+  explicit RandomProblem(unsigned seed) : rng(seed) {}
+
+  // Adds pose k observing the features around place(k) (a triangle wave over 12 places, 6
+  // features each); `factor` gets it with or without refactoring.
+  bool AddPose(int k, PoseSchurFactor* factor, bool refactor) {
+    const int place = std::abs((k + 6) % 24 - 12);
+    std::normal_distribution<double> normal(0.0, 1.0);
+    std::vector<SchurObservation> observations;
+    Eigen::Matrix<double, 6, 6> I_pp = Eigen::Matrix<double, 6, 6>::Zero();
+    if (k == 0) I_pp = 100.0 * Eigen::Matrix<double, 6, 6>::Identity();  // the anchor
+    std::vector<Eigen::Matrix<double, 3, 9>> H;
+    for (int f = 6 * place; f < 6 * place + 9; ++f) {
+      SchurObservation obs;
+      obs.is_new = offset_of.count(f) == 0;
+      if (obs.is_new) {
+        offset_of[f] = dim;
+        dim += 3;
+      }
+      obs.feature_offset = offset_of[f];
+      Eigen::Matrix<double, 3, 9> h;
+      for (int i = 0; i < h.size(); ++i) h(i) = normal(rng);
+      I_pp += h.leftCols<6>().transpose() * h.leftCols<6>();
+      obs.I_pf = h.leftCols<6>().transpose() * h.rightCols<3>();
+      // (+ a little, so that no feature is nearly undetermined: the dense inverse used as
+      // the reference stays accurate to 1e-9.)
+      obs.I_ff = h.rightCols<3>().transpose() * h.rightCols<3>() +
+                 0.5 * Eigen::Matrix3d::Identity();
+      observations.push_back(obs);
+    }
+    const int pose_offset = dim;
+    dim += 6;
+    const Eigen::MatrixXd old = I;
+    I = Eigen::MatrixXd::Zero(dim, dim);
+    I.topLeftCorner(old.rows(), old.cols()) = old;
+    I.block<6, 6>(pose_offset, pose_offset) = I_pp;
+    for (const SchurObservation& obs : observations) {
+      I.block<3, 3>(obs.feature_offset, obs.feature_offset) += obs.I_ff;
+      I.block<6, 3>(pose_offset, obs.feature_offset) = obs.I_pf;
+      I.block<3, 6>(obs.feature_offset, pose_offset) = obs.I_pf.transpose();
+    }
+    pose_offsets.push_back(pose_offset);
+    return factor->AddPose(pose_offset, I_pp, observations, refactor);
+  }
+
+  void ExpectAgreement(const PoseSchurFactor& factor) {
+    const Eigen::LLT<Eigen::MatrixXd> llt(I);
+    ASSERT_EQ(llt.info(), Eigen::Success);
+    std::uniform_real_distribution<double> uniform(-1.0, 1.0);
+    Eigen::VectorXd i(dim);
+    for (int r = 0; r < dim; ++r) i[r] = uniform(rng);
+    const Eigen::VectorXd x = llt.solve(i);
+    EXPECT_LT((factor.Solve(i) - x).norm(), 1e-9 * x.norm());
+    const double log_det = 2.0 * llt.matrixLLT().diagonal().array().log().sum();
+    EXPECT_NEAR(factor.LogDet(), log_det, 1e-9 * std::abs(log_det));
+    // A pose of the first loop, the newest pose and two features, scalars out of order.
+    const Eigen::MatrixXd inverse = llt.solve(Eigen::MatrixXd::Identity(dim, dim));
+    std::vector<int> indices = {pose_offsets.back() + 2, offset_of.begin()->second + 1};
+    for (int c = 0; c < 6; ++c) indices.push_back(pose_offsets[1] + c);
+    for (int c = 0; c < 3; ++c) indices.push_back(pose_offsets.back() - 3 + c);
+    EXPECT_LT((factor.InverseSubmatrix(indices) - inverse(indices, indices)).norm(),
+              1e-9 * inverse(indices, indices).norm());
+  }
+
+  std::mt19937 rng;
+  std::map<int, int> offset_of;  // feature -> offset
+  std::vector<int> pose_offsets;
+  int dim = 0;
+  Eigen::MatrixXd I;
+};
+
+TEST(PoseSchurFactorTest, AgreesWithTheDenseFactorThroughEvictionsAndMoves) {
+  for (const int prefetch : {0, 1, 4}) {
+    for (const int evict_after : {1, 3, 100}) {
+      SCOPED_TRACE(::testing::Message() << "prefetch " << prefetch << ", evict_after "
+                                        << evict_after);
+      RandomProblem problem(prefetch * 10 + evict_after);
+      PoseSchurFactor factor({prefetch, evict_after});
+      for (int k = 0; k < 40; ++k) {
+        ASSERT_TRUE(problem.AddPose(k, &factor, true)) << "pose " << k;
+        if (k % 7 == 3) {
+          SCOPED_TRACE(::testing::Message() << "pose " << k);
+          problem.ExpectAgreement(factor);
+        }
+      }
+      problem.ExpectAgreement(factor);
+    }
+  }
+}
+
+TEST(PoseSchurFactorTest, DeferredAdditionsThenRefactorAgree) {
+  RandomProblem problem(3);
+  PoseSchurFactor factor({2, 3});
+  for (int k = 0; k < 20; ++k) ASSERT_TRUE(problem.AddPose(k, &factor, false));
+  EXPECT_FALSE(factor.valid());
+  ASSERT_TRUE(factor.Refactor());
+  problem.ExpectAgreement(factor);
+  for (int k = 20; k < 30; ++k) ASSERT_TRUE(problem.AddPose(k, &factor, true));
+  problem.ExpectAgreement(factor);
+}
+
+// A pose with no information makes the matrix singular: refused, and nothing changes.
+TEST(PoseSchurFactorTest, AFailedAdditionLeavesTheFactorUnchanged) {
+  RandomProblem problem(5);
+  PoseSchurFactor factor({1, 2});
+  for (int k = 0; k < 25; ++k) ASSERT_TRUE(problem.AddPose(k, &factor, true));
+  const Eigen::VectorXd i = Eigen::VectorXd::LinSpaced(problem.dim, -1.0, 1.0);
+  const Eigen::VectorXd before = factor.Solve(i);
+  const double log_det = factor.LogDet();
+  // Re-observes two features with a rank-deficient pose block: not positive definite.
+  SchurObservation obs;
+  obs.feature_offset = problem.offset_of.begin()->second;
+  std::vector<SchurObservation> observations = {obs};
+  EXPECT_FALSE(factor.AddPose(problem.dim, Eigen::Matrix<double, 6, 6>::Zero(), observations,
+                              true));
+  EXPECT_EQ(factor.num_poses(), 25);
+  EXPECT_EQ((factor.Solve(i) - before).norm(), 0.0);
+  EXPECT_EQ(factor.LogDet(), log_det);
+  // And it goes on as if the failed pose had never come.
+  for (int k = 25; k < 35; ++k) ASSERT_TRUE(problem.AddPose(k, &factor, true));
+  problem.ExpectAgreement(factor);
+}
+
+}  // namespace
+}  // namespace ieslam
