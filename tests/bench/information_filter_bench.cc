@@ -17,6 +17,7 @@
 // Run: build with -DIESLAM_BUILD_BENCHMARKS=ON, then
 //   ieslam_bench --benchmark_filter=InformationFilter
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <random>
 #include <set>
@@ -242,6 +243,37 @@ void BM_InformationFilter_JointFeatureCovariance150_Corridor35k(benchmark::State
 }
 BENCHMARK(BM_InformationFilter_JointFeatureCovariance150_Corridor35k)
     ->Iterations(5)->Unit(benchmark::kMillisecond);
+
+// The selector's fast gain (METHOD.md §4): scoring one candidate given the joint covariance
+// of the known features it observes, with 100 and 1000 poses in the map. The scoring does not
+// depend on the map's size; the covariance, recovered once per buffer, does, and is reported
+// as the counter covariance_ms.
+void BM_InformationGainPerCandidate_Corridor(benchmark::State& state) {
+  const int poses = static_cast<int>(state.range(0));
+  const Problem problem = CorridorProblem(poses + 1);
+  InformationFilter filter(InformationFilterOptions(), problem.camera);
+  Load(problem, poses - kWarmUpdates, &filter);
+  for (int next = poses - kWarmUpdates; next < poses; ++next) AddNext(problem, next, &filter);
+  const std::vector<FeatureObservation>& candidate = problem.observations[poses];
+  std::vector<int64_t> known;
+  for (const FeatureObservation& obs : candidate) {
+    if (filter.HasFeature(obs.feature_id)) known.push_back(obs.feature_id);
+  }
+  const auto start = std::chrono::steady_clock::now();
+  const FeatureCovariance covariance = filter.JointFeatureCovariance(known);
+  const double covariance_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  const int new_features = filter.CountNewFeatures(candidate);
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(
+        filter.InformationGain(problem.poses[poses], candidate, new_features, covariance));
+  }
+  state.counters["known_features"] = static_cast<double>(known.size());
+  state.counters["state_dim"] = filter.state_dim();
+  state.counters["covariance_ms"] = covariance_ms;
+}
+BENCHMARK(BM_InformationGainPerCandidate_Corridor)
+    ->Arg(100)->Arg(1000)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 }  // namespace ieslam
