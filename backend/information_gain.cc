@@ -101,10 +101,8 @@ double InformationFilter::InformationGain(const Vector6d& T_w_c_candidate,
       << "the candidate has " << num_counted << " new features, asked to count "
       << num_new_features_to_count;
 
-  const Eigen::LLT<Matrix6d> C_llt(C);
   const double log_det_C = LogDetSpd(C);
   if (!std::isfinite(log_det_C)) return -std::numeric_limits<double>::infinity();
-  const Eigen::MatrixXd M = A - B * C_llt.solve(B.transpose());
 
   Eigen::MatrixXd P_SS(3 * num_known, 3 * num_known);
   for (int r = 0; r < num_known; ++r) {
@@ -113,13 +111,35 @@ double InformationFilter::InformationGain(const Vector6d& T_w_c_candidate,
           known.covariance.block<3, 3>(3 * in_known[r], 3 * in_known[c]);
     }
   }
-  // det(I + P M) = det(I + L^T M L) for P = L L^T: a symmetric positive definite form.
-  const Eigen::LLT<Eigen::MatrixXd> P_llt(P_SS);
-  CHECK(P_llt.info() == Eigen::Success) << "the features' covariance is not positive definite";
-  const Eigen::MatrixXd L = P_llt.matrixL();
-  const Eigen::MatrixXd K =
-      Eigen::MatrixXd::Identity(3 * num_known, 3 * num_known) + L.transpose() * M * L;
-  const double map_term = LogDetSpd(K);
+  // log det(I + P (A - B C^-1 B^T)) without n x n products: with A = G G^T (3x3 blocks, each
+  // feature's own information) and K = I + G^T P G,
+  //   det(I + P A) = det K,   (P^-1 + A)^-1 = P - P G K^-1 G^T P   (Woodbury),
+  // and the rank-6 rest by the determinant lemma:
+  //   det(I + P M) = det K * det(C - N) / det C,   N = B^T (P^-1 + A)^-1 B.
+  // One n x n Cholesky (K) and O(n^2) work besides.
+  Eigen::MatrixXd G = Eigen::MatrixXd::Zero(3 * num_known, 3 * num_known);
+  for (int s = 0; s < num_known; ++s) {
+    const Eigen::LLT<Eigen::Matrix3d> block(A.block<3, 3>(3 * s, 3 * s));
+    CHECK(block.info() == Eigen::Success) << "a known feature's information is not positive definite";
+    G.block<3, 3>(3 * s, 3 * s) = block.matrixL();
+  }
+  Eigen::MatrixXd PG = Eigen::MatrixXd::Zero(3 * num_known, 3 * num_known);
+  for (int s = 0; s < num_known; ++s) {
+    PG.middleCols<3>(3 * s) = P_SS.middleCols<3>(3 * s) * G.block<3, 3>(3 * s, 3 * s);
+  }
+  Eigen::MatrixXd K = Eigen::MatrixXd::Identity(3 * num_known, 3 * num_known);
+  for (int s = 0; s < num_known; ++s) {
+    K.middleRows<3>(3 * s) += G.block<3, 3>(3 * s, 3 * s).transpose() * PG.middleRows<3>(3 * s);
+  }
+  const Eigen::LLT<Eigen::MatrixXd> K_llt(K);
+  if (K_llt.info() != Eigen::Success) return -std::numeric_limits<double>::infinity();
+  const double log_det_K = 2.0 * K_llt.matrixLLT().diagonal().array().log().sum();
+  const Eigen::MatrixXd PB = P_SS * B;
+  const Eigen::MatrixXd GtPB = PG.transpose() * B;  // G^T P B (P symmetric)
+  const Matrix6d N = B.transpose() * PB - GtPB.transpose() * K_llt.solve(GtPB);
+  const Matrix6d C_minus_N = 0.5 * ((C - N) + (C - N).transpose());
+  const double map_term = log_det_K + LogDetSpd(C_minus_N) - log_det_C;
+  if (!std::isfinite(map_term)) return -std::numeric_limits<double>::infinity();
   if (terms != nullptr) *terms = {new_features_term, log_det_C, map_term};
   return new_features_term + log_det_C + map_term;
 }
