@@ -222,7 +222,7 @@ class Run {
         buffer.push_back(std::move(c));
       }
       if (buffer.empty()) {
-        if (refused < 0) break;  // the sequence ended within the spacing
+        if (refused < 0) break;  // the sequence ended before another candidate
         // Frame `refused` does not register: recover through dropped frames, or skip it.
         if (Recover(refused)) {
           next = last_base_ + 1;
