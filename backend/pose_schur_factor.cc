@@ -279,16 +279,19 @@ bool PoseSchurFactor::FactorFrom(int first, const std::vector<int>& order, int w
     T = *trailing;
   } else {
     T = S_(rows, rows);
-    if (f6 > 0) T.selfadjointView<Eigen::Lower>().rankUpdate(L_lead, -1.0);
+    if (f6 > 0 && T.rows() > 0) T.selfadjointView<Eigen::Lower>().rankUpdate(L_lead, -1.0);
   }
   // Factor the part before the window, then the window's Schur complement C.
   const int a = w6 - f6, m = n - w6;
   Eigen::MatrixXd L11 = T.topLeftCorner(a, a);
   if (!FactorInPlace(&L11)) return false;
   Eigen::MatrixXd L21 = T.bottomLeftCorner(m, a);
-  L11.triangularView<Eigen::Lower>().transpose().solveInPlace<Eigen::OnTheRight>(L21);
+  // Empty blocks are skipped: Eigen's triangular solve binds a reference to their (null) data.
+  if (a > 0 && m > 0) {
+    L11.triangularView<Eigen::Lower>().transpose().solveInPlace<Eigen::OnTheRight>(L21);
+  }
   Eigen::MatrixXd C = T.bottomRightCorner(m, m);
-  if (a > 0) C.selfadjointView<Eigen::Lower>().rankUpdate(L21, -1.0);
+  if (a > 0 && m > 0) C.selfadjointView<Eigen::Lower>().rankUpdate(L21, -1.0);
   C.triangularView<Eigen::StrictlyUpper>() = C.transpose();
   Eigen::MatrixXd L22 = C;
   if (!FactorInPlace(&L22)) return false;
@@ -324,8 +327,10 @@ Eigen::VectorXd PoseSchurFactor::Solve(const Eigen::VectorXd& info_vector) const
     }
   }
   const auto L = L_.topLeftCorner(n, n).triangularView<Eigen::Lower>();
-  L.solveInPlace(b);
-  L.transpose().solveInPlace(b);
+  if (b.size() > 0) {
+    L.solveInPlace(b);
+    L.transpose().solveInPlace(b);
+  }
   Eigen::VectorXd x(info_vector.size());
   for (int pose = 0; pose < num_poses(); ++pose) {
     x.segment<6>(pose_offsets_[pose]) = b.segment<6>(6 * position_[pose]);
@@ -380,7 +385,7 @@ Eigen::MatrixXd PoseSchurFactor::InverseSubmatrix(const std::vector<int>& indice
     CHECK(found) << "state index " << index << " is neither a pose nor a feature";
   }
   Eigen::MatrixXd result = Eigen::MatrixXd::Zero(k, k);
-  if (top < n) {
+  if (top < n && k > 0) {
     // Z = L^-1 R is zero above the first nonzero row of R.
     Eigen::MatrixXd Z = R.bottomRows(n - top);
     L_.block(top, top, n - top, n - top).triangularView<Eigen::Lower>().solveInPlace(Z);
