@@ -50,9 +50,9 @@ int RefineCommand(const CommandArgs& args) {
   if (flags.Has("config")) ApplyConfigFile(flags.Require("config"), &options);
   BundleAdjustmentOptions ba = options.ba;
   const std::string robust = flags.GetString("robust", BaRobustLossName(ba.robust_loss));
-  if (robust == "none") ba.robust_loss = BaRobustLoss::kNone;
-  else if (robust == "huber") ba.robust_loss = BaRobustLoss::kHuber;
-  else throw ConfigError("--robust must be none or huber, got '" + robust + "'");
+  if (!ParseBaRobustLoss(robust, &ba.robust_loss)) {
+    throw ConfigError("--robust must be none or huber, got '" + robust + "'");
+  }
   ba.num_threads = flags.GetInt("threads", 1, 1, 256);
   std::string why;
   if (!ba.Check(&why)) throw ConfigError(why);

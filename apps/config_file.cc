@@ -140,9 +140,9 @@ void ApplyConfigFile(const std::string& path, RunOptions* o) {
        [&](Section* x) {
          std::string loss = BaRobustLossName(o->ba.robust_loss);
          x->String("robust_loss", &loss);
-         if (loss == "none") o->ba.robust_loss = BaRobustLoss::kNone;
-         else if (loss == "huber") o->ba.robust_loss = BaRobustLoss::kHuber;
-         else throw ConfigError(path + ": ba.robust_loss must be none or huber, got '" + loss + "'");
+         if (!ParseBaRobustLoss(loss, &o->ba.robust_loss)) {
+           throw ConfigError(path + ": ba.robust_loss must be none or huber, got '" + loss + "'");
+         }
          x->Double("huber_scale", &o->ba.huber_scale);
          x->Int("max_iterations", &o->ba.max_iterations);
        }},

@@ -142,6 +142,16 @@ std::string BaRobustLossName(BaRobustLoss loss) {
   return loss == BaRobustLoss::kHuber ? "huber" : "none";
 }
 
+bool ParseBaRobustLoss(const std::string& name, BaRobustLoss* loss) {
+  for (const BaRobustLoss candidate : {BaRobustLoss::kNone, BaRobustLoss::kHuber}) {
+    if (name == BaRobustLossName(candidate)) {
+      *loss = candidate;
+      return true;
+    }
+  }
+  return false;
+}
+
 std::string BaLinearSolverName(BaLinearSolver solver) {
   return solver == BaLinearSolver::kSparseSchur ? "sparse_schur" : "sparse_normal_cholesky";
 }

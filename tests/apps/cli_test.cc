@@ -1,29 +1,15 @@
 // The `ieslam` binary as users and outside checks see it: subcommands, help, exit codes.
-#include <array>
-#include <cstdio>
 #include <string>
 
 #include <gtest/gtest.h>
 
+#include "command_test_util.h"
+
 namespace {
 
-struct Result {
-  int exit_code = -1;
-  std::string output;  // stdout and stderr together
-};
-
-Result RunIeslam(const std::string& args) {
-  const std::string command = std::string(IESLAM_BINARY) + " " + args + " 2>&1";
-  Result result;
-  FILE* pipe = popen(command.c_str(), "r");
-  if (pipe == nullptr) return result;
-  std::array<char, 4096> buffer;
-  size_t n;
-  while ((n = fread(buffer.data(), 1, buffer.size(), pipe)) > 0) result.output.append(buffer.data(), n);
-  const int status = pclose(pipe);
-  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return result;
-}
+using ieslam::testing_apps::CommandResult;
+using ieslam::testing_apps::RunIeslam;
+using Result = CommandResult;
 
 TEST(CliTest, HelpListsEverySubcommandOfTheInterface) {
   const Result result = RunIeslam("--help");

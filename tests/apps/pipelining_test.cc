@@ -10,19 +10,14 @@
 #include <gtest/gtest.h>
 
 #include "apps/run_pipeline.h"
+#include "command_test_util.h"
 #include "frontend/synthetic_dataset.h"
 
 namespace ieslam {
 namespace {
 
 namespace fs = std::filesystem;
-
-std::string ReadFile(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+using testing_apps::ReadFile;
 
 TEST(PipeliningTest, ThreadedRunWritesTheSequentialTrajectory) {
   const fs::path root =

@@ -15,19 +15,14 @@
 
 #include "backend/evaluation.h"
 #include "core/error.h"
+#include "command_test_util.h"
 #include "frontend/synthetic_dataset.h"
 
 namespace ieslam {
 namespace {
 
 namespace fs = std::filesystem;
-
-std::string ReadFile(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+using testing_apps::ReadFile;
 
 class RunPipelineTest : public ::testing::Test {
  protected:
@@ -95,18 +90,17 @@ TEST_F(RunPipelineTest, RefineNowAndRefineLaterFromTheStoredProblemAgree) {
   EXPECT_LT(summary.ate_refined_m, 0.02);
   EXPECT_NE(ReadFile(out / "report.json").find("\"filter_vs_smoother\""), std::string::npos);
   const fs::path later = root_ / "refined_later";
-  const std::string command = std::string(IESLAM_BINARY) + " refine --run " + out.string() +
-                              " --output " + later.string() + " > /dev/null";
-  ASSERT_EQ(std::system(command.c_str()), 0) << command;
+  const testing_apps::CommandResult later_run =
+      testing_apps::RunIeslam("refine --run " + out.string() + " --output " + later.string());
+  ASSERT_EQ(later_run.exit_code, 0) << later_run.output;
   EXPECT_EQ(ReadFile(later / "refined.tum"), ReadFile(out / "refined.tum"));
   const std::string report = ReadFile(later / "report.json");
   EXPECT_NE(report.find("\"refined\""), std::string::npos) << report;
   // A run directory without a stored problem is a data error (exit 3) naming the file.
-  const std::string missing = std::string(IESLAM_BINARY) + " refine --run " + later.string() +
-                              " --output " + (root_ / "x").string() + " 2> /dev/null";
-  const int status = std::system(missing.c_str());
-  ASSERT_TRUE(WIFEXITED(status));
-  EXPECT_EQ(WEXITSTATUS(status), 3);
+  const testing_apps::CommandResult missing = testing_apps::RunIeslam(
+      "refine --run " + later.string() + " --output " + (root_ / "x").string());
+  EXPECT_EQ(missing.exit_code, 3) << missing.output;
+  EXPECT_NE(missing.output.find("ba_problem.txt"), std::string::npos) << missing.output;
 }
 
 TEST_F(RunPipelineTest, SingleThreadRunsAreByteIdentical) {
