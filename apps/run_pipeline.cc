@@ -124,7 +124,9 @@ RunSummary RunPipeline(const RunOptions& options, const std::function<bool()>& s
   std::string why;
   if (!options.Check(&why)) throw ConfigError(why);
   const auto start = std::chrono::steady_clock::now();
-  if (options.threads > 0) cv::setNumThreads(options.threads);
+  // OpenCV's TBB back end warns on stderr when asked for more threads than there are cores.
+  const int cores = std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+  if (options.threads > 0) cv::setNumThreads(std::min(options.threads, cores));
   const auto dataset = OpenDataset(options.dataset, options.dataset_options);
   PrepareOutputDirectory(options.output);
 
