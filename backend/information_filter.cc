@@ -44,6 +44,8 @@ bool InformationFilterOptions::Check(std::string* why) const {
     reason << "cg_tolerance must be positive and finite, got " << cg_tolerance;
   } else if (cg_max_iterations < 1) {
     reason << "cg_max_iterations must be >= 1, got " << cg_max_iterations;
+  } else if (!(cg_flop_weight >= 0.0) || !std::isfinite(cg_flop_weight)) {
+    reason << "cg_flop_weight must be >= 0 and finite, got " << cg_flop_weight;
   }
   if (why != nullptr) *why = reason.str();
   return reason.str().empty();
@@ -102,6 +104,7 @@ InformationFilter::InformationFilter(const InformationFilterOptions& options,
     PoseSchurOptions schur_options;
     schur_options.cg_tolerance = options_.cg_tolerance;
     schur_options.cg_max_iterations = options_.cg_max_iterations;
+    schur_options.cg_flop_weight = options_.cg_flop_weight;
     schur_ = std::make_unique<PoseSchurFactor>(schur_options);
   }
 }

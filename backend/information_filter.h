@@ -61,6 +61,8 @@ struct InformationFilterOptions {
   bool iterative_recovery = true;
   double cg_tolerance = 1e-10;
   int cg_max_iterations = 60;
+  // How many refactoring flops a CG flop costs, for the choice (PoseSchurOptions).
+  double cg_flop_weight = 5.0;
   // A new pose is constrained only by its observations of features already in the map;
   // with (u, v, d) observations three features in general position determine it.
   int min_known_features = 3;

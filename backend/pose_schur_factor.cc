@@ -16,11 +16,6 @@ using Matrix66 = Eigen::Matrix<double, 6, 6>;
 
 double Square(double x) { return x * x; }
 
-// Conjugate gradients stream the factor and the couplings from memory, at a fraction of the
-// flop rate of the blocked factorisation: in the lazy-versus-exact cost comparisons their
-// flops count this many times. Measured on the paper's simulation at 300 poses: ~1 Gflop/s
-// for CG iterations, ~5 Gflop/s refactoring.
-constexpr double kMemoryBoundWeight = 5.0;
 
 // F^-1 for a symmetric positive definite 3x3 F, exactly symmetric.
 Eigen::Matrix3d SymmetricInverse(const Eigen::Matrix3d& F) {
@@ -42,6 +37,7 @@ bool FactorInPlace(Eigen::MatrixXd* T) {
 PoseSchurFactor::PoseSchurFactor(const PoseSchurOptions& options) : options_(options) {
   CHECK_GE(options_.prefetch, 0);
   CHECK_GE(options_.evict_after, 1);
+  CHECK_GE(options_.cg_flop_weight, 0.0);
 }
 
 void PoseSchurFactor::Grow(int n) {
@@ -236,7 +232,7 @@ bool PoseSchurFactor::LazyIsCheaper(const std::vector<int>& touched) const {
   const double exact_flops = (fast ? 0.0 : 0.5 * m * m * 6.0 * plan.first) + m * m * m / 6.0;
   // Of the lazy one: CG (as many iterations as last time) and the new poses' block C.
   const double lazy_n = 6.0 * (k + 1 - static_cast<int>(order_.size()));
-  const double iteration = kMemoryBoundWeight * CgIterationFlops();
+  const double iteration = options_.cg_flop_weight * CgIterationFlops();
   const int expected = std::max(last_cg_iterations_, 1);
   const double prepare = LazyPreparationFlops(lazy_n);
   // Exact when refactoring costs less than the lazy solve (as in the first loop, where the
@@ -618,7 +614,7 @@ bool PoseSchurFactor::SolveIteratively(const Eigen::VectorXd& info_vector,
   last_cg_iterations_ = iterations;
   if (baseline_iterations_ < 0) baseline_iterations_ = iterations;
   lazy_flops_ +=
-      kMemoryBoundWeight * std::max(iterations - baseline_iterations_, 0) * CgIterationFlops();
+      options_.cg_flop_weight * std::max(iterations - baseline_iterations_, 0) * CgIterationFlops();
   *x = FullState(info_vector, x_p);
   return rz <= tolerance;
 }
