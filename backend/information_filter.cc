@@ -266,9 +266,10 @@ void InformationFilter::Update(int frame_id, const Vector6d& T_w_c,
       " makes the information matrix not positive definite (degenerate observations?)";
   if (schur_ != nullptr) {
     const Matrix6d I_pp = lin.I_pp + prior * Matrix6d::Identity();
-    const SchurUpdate mode = defer_recovery_               ? SchurUpdate::kDefer
-                             : options_.iterative_recovery ? SchurUpdate::kLazy
-                                                           : SchurUpdate::kExact;
+    const bool lazy = options_.iterative_recovery && !queried_;
+    const SchurUpdate mode = defer_recovery_ ? SchurUpdate::kDefer
+                             : lazy          ? SchurUpdate::kLazy
+                                             : SchurUpdate::kExact;
     if (!schur_->AddPose(new_dim - 6, I_pp, schur_observations, mode)) {
       restore();
       throw DataError(not_positive_definite);
@@ -307,6 +308,7 @@ void InformationFilter::Update(int frame_id, const Vector6d& T_w_c,
       solved = true;
     }
     if (solved) {
+      queried_ = false;
       Register(lin, frame_id, old_dim, new_dim);
       state_ = std::move(solution);
       recovery_pending_ = false;
@@ -383,6 +385,7 @@ void InformationFilter::EnsureExactFactor() const {
   if (schur_ == nullptr) return;
   const std::lock_guard<std::mutex> lock(factor_mutex_);
   CHECK(schur_->MakeExact()) << "the pose Schur complement is numerically not positive definite";
+  queried_ = true;
 }
 
 Vector6d InformationFilter::pose(int frame_id) const {

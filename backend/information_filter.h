@@ -57,7 +57,7 @@ struct InformationFilterOptions {
   // factorisation have cost as much as one (backend/pose_schur_factor.h); false refactors on
   // every update. CG stops when the error's Mahalanobis norm is below cg_tolerance, so each
   // state component is within cg_tolerance of its standard deviation of the exact solve.
-  // Measured (CPU time, the paper's all-frames simulation): ...
+  // Updates that follow a query stay exact (the selector queries once per added frame).
   bool iterative_recovery = true;
   double cg_tolerance = 1e-10;
   int cg_max_iterations = 60;
@@ -237,6 +237,10 @@ class InformationFilter {
   // its state is a cache of the matrix, which they do not change.
   std::unique_ptr<PoseSchurFactor> schur_;
   mutable std::mutex factor_mutex_;
+  // A query needed the exact factor since the last update. Then the next update keeps it
+  // exact: the selector asks once per added frame, and refactoring at the update (in the
+  // trailing window, usually) costs less than a lazy update and a refactor at the query.
+  mutable bool queried_ = false;
   Eigen::VectorXd info_vector_;
   Eigen::VectorXd state_;
   std::vector<int> frame_ids_;
