@@ -209,6 +209,13 @@ void BM_InformationFilterUpdate_PaperGrowth(benchmark::State& state) {
 BENCHMARK(BM_InformationFilterUpdate_PaperGrowth)
     ->DenseRange(50, 300, 50)->Iterations(kTimedUpdates)->Unit(benchmark::kMillisecond);
 
+void BM_InformationFilterUpdate_PaperGrowth_ExactRecovery(benchmark::State& state) {
+  static const Problem problem = PaperProblem(2000);
+  TimeUpdates(problem, static_cast<int>(state.range(0)), state, ExactRecovery());
+}
+BENCHMARK(BM_InformationFilterUpdate_PaperGrowth_ExactRecovery)
+    ->DenseRange(50, 300, 50)->Iterations(kTimedUpdates)->Unit(benchmark::kMillisecond);
+
 // All 300 frames of the paper's simulation through the filter, one update each: the
 // all-frames row of `ieslam simulate`.
 void PaperAllFrames(benchmark::State& state, const InformationFilterOptions& options) {
