@@ -51,13 +51,17 @@ struct InformationFilterOptions {
   // memory, ~(6P + 600)^2 * 16 bytes: 144 MB at 2400.
   int max_dense_pose_dim = 2400;
   // While the pose Schur complement factors the matrix: true recovers the state after an
-  // update by conjugate gradients preconditioned with the last factor (extended by the new
-  // pose), and refactors only when a query needs the exact factor (log det, covariances),
-  // when CG does not converge within cg_max_iterations, or when the solves since the last
-  // factorisation have cost as much as one (backend/pose_schur_factor.h); false refactors on
-  // every update. CG stops when the error's Mahalanobis norm is below cg_tolerance, so each
-  // state component is within cg_tolerance of its standard deviation of the exact solve.
+  // update by conjugate gradients preconditioned with the last factor (the poses added since
+  // eliminated exactly), and refactors only when a query needs the exact factor (log det,
+  // covariances), when CG does not converge within cg_max_iterations, when refactoring is
+  // the cheaper, or when the solves have grown dearer by as much as a refactor costs
+  // (backend/pose_schur_factor.h); false refactors on every update. CG stops when the
+  // error's Mahalanobis norm is below cg_tolerance, so each state component is within
+  // cg_tolerance of its standard deviation of the exact solve (the tests: 1e-9 absolute).
   // Updates that follow a query stay exact (the selector queries once per added frame).
+  // Measured (CPU time, noisy shared machine): the paper's all-frames simulation 3.8 s a run
+  // instead of 11.5 s; an update at state 7,389 (300 poses) 41 ms on average over 24
+  // instead of ~195 ms.
   bool iterative_recovery = true;
   double cg_tolerance = 1e-10;
   int cg_max_iterations = 60;
