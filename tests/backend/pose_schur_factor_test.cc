@@ -178,5 +178,28 @@ TEST(PoseSchurFactorTest, AFailedAdditionLeavesTheFactorUnchanged) {
   problem.ExpectAgreement(factor);
 }
 
+// The same between lazy updates (cg_flop_weight 0: lazy whenever it may be): the singular
+// pose is refused, and the solves go on as before.
+TEST(PoseSchurFactorTest, ALazyAdditionThatIsNotPositiveDefiniteIsRefused) {
+  RandomProblem problem(6);
+  PoseSchurFactor factor({1, 2, 1e-10, 60, 0.0});
+  for (int k = 0; k < 25; ++k) ASSERT_TRUE(problem.AddPose(k, &factor, SchurUpdate::kLazy));
+  ASSERT_FALSE(factor.exact());
+  const Eigen::VectorXd i = Eigen::VectorXd::LinSpaced(problem.dim, -1.0, 1.0);
+  const Eigen::VectorXd zero = Eigen::VectorXd::Zero(problem.dim);
+  Eigen::VectorXd before, after;
+  ASSERT_TRUE(factor.SolveIteratively(i, zero, &before));
+  SchurObservation obs;
+  obs.feature_offset = problem.offset_of.begin()->second;
+  EXPECT_FALSE(factor.AddPose(problem.dim, Eigen::Matrix<double, 6, 6>::Zero(), {obs},
+                              SchurUpdate::kLazy));
+  EXPECT_EQ(factor.num_poses(), 25);
+  ASSERT_TRUE(factor.SolveIteratively(i, zero, &after));
+  EXPECT_EQ((after - before).norm(), 0.0);
+  for (int k = 25; k < 35; ++k) ASSERT_TRUE(problem.AddPose(k, &factor, SchurUpdate::kLazy));
+  ASSERT_TRUE(factor.MakeExact());
+  problem.ExpectAgreement(factor);
+}
+
 }  // namespace
 }  // namespace ieslam
