@@ -40,6 +40,12 @@ bool InformationFilterOptions::Check(std::string* why) const {
     reason << "spare_capacity must be >= 0 and finite, got " << spare_capacity;
   } else if (max_dense_pose_dim < 0) {
     reason << "max_dense_pose_dim must be >= 0, got " << max_dense_pose_dim;
+  } else if (!(cg_tolerance > 0.0) || !std::isfinite(cg_tolerance)) {
+    reason << "cg_tolerance must be positive and finite, got " << cg_tolerance;
+  } else if (cg_max_iterations < 1) {
+    reason << "cg_max_iterations must be >= 1, got " << cg_max_iterations;
+  } else if (!(cg_flop_weight >= 0.0) || !std::isfinite(cg_flop_weight)) {
+    reason << "cg_flop_weight must be >= 0 and finite, got " << cg_flop_weight;
   }
   if (why != nullptr) *why = reason.str();
   return reason.str().empty();
@@ -94,7 +100,13 @@ InformationFilter::InformationFilter(const InformationFilterOptions& options,
   std::string why;
   if (!options_.Check(&why)) throw ConfigError("InformationFilterOptions: " + why);
   cholesky_ = std::make_unique<SparseCholesky>(options_.ordering, options_.spare_capacity);
-  if (options_.max_dense_pose_dim >= 6) schur_ = std::make_unique<PoseSchurFactor>();
+  if (options_.max_dense_pose_dim >= 6) {
+    PoseSchurOptions schur_options;
+    schur_options.cg_tolerance = options_.cg_tolerance;
+    schur_options.cg_max_iterations = options_.cg_max_iterations;
+    schur_options.cg_flop_weight = options_.cg_flop_weight;
+    schur_ = std::make_unique<PoseSchurFactor>(schur_options);
+  }
 }
 
 InformationFilter::~InformationFilter() = default;
@@ -254,7 +266,11 @@ void InformationFilter::Update(int frame_id, const Vector6d& T_w_c,
       " makes the information matrix not positive definite (degenerate observations?)";
   if (schur_ != nullptr) {
     const Matrix6d I_pp = lin.I_pp + prior * Matrix6d::Identity();
-    if (!schur_->AddPose(new_dim - 6, I_pp, schur_observations, !defer_recovery_)) {
+    const bool lazy = options_.iterative_recovery && !queried_;
+    const SchurUpdate mode = defer_recovery_ ? SchurUpdate::kDefer
+                             : lazy          ? SchurUpdate::kLazy
+                                             : SchurUpdate::kExact;
+    if (!schur_->AddPose(new_dim - 6, I_pp, schur_observations, mode)) {
       restore();
       throw DataError(not_positive_definite);
     }
@@ -271,19 +287,38 @@ void InformationFilter::Update(int frame_id, const Vector6d& T_w_c,
     Register(lin, frame_id, old_dim, new_dim);
     recovery_pending_ = true;
     timings_.analyze_s = timings_.factorize_s = timings_.solve_s = 0.0;
+    timings_.cg_iterations = 0;
     timings_.total_s = SecondsSince(start);
     return;
   }
+  timings_.cg_iterations = 0;
   if (schur_ != nullptr) {
     timings_.analyze_s = 0.0;
     timings_.factorize_s = SecondsSince(start) - timings_.linearize_s;
-    Register(lin, frame_id, old_dim, new_dim);
     const auto solve_start = std::chrono::steady_clock::now();
-    state_ = schur_->Solve(info_vector_);  // eq. 10: I X = i
-    recovery_pending_ = false;
-    timings_.solve_s = SecondsSince(solve_start);
-    timings_.total_s = SecondsSince(start);
-    return;
+    // Eq. 10, I X = i, from the previous estimate (only the poses are read).
+    Eigen::VectorXd guess = state_;
+    guess.conservativeResize(new_dim);
+    guess.tail<6>() = T_w_c;
+    Eigen::VectorXd solution;
+    bool solved = schur_->SolveIteratively(info_vector_, guess, &solution);
+    timings_.cg_iterations = schur_->last_cg_iterations();
+    if (!solved && schur_->MakeExact()) {
+      solution = schur_->Solve(info_vector_);
+      solved = true;
+    }
+    if (solved) {
+      queried_ = false;
+      Register(lin, frame_id, old_dim, new_dim);
+      state_ = std::move(solution);
+      recovery_pending_ = false;
+      timings_.solve_s = SecondsSince(solve_start);
+      timings_.total_s = SecondsSince(start);
+      return;
+    }
+    // S is numerically indefinite although its preconditioner was not: the sparse factor
+    // takes over and decides.
+    schur_.reset();
   }
   // In place when the factor has room (the re-observed features' blocks are a low-rank
   // update, the new variables new rows), else a fresh ordering and factorisation.
@@ -345,6 +380,14 @@ void InformationFilter::CheckRecovered() const {
   CHECK(!recovery_pending_) << "deferred updates are pending: call Recover() first";
 }
 
+void InformationFilter::EnsureExactFactor() const {
+  CheckRecovered();
+  if (schur_ == nullptr) return;
+  const std::lock_guard<std::mutex> lock(factor_mutex_);
+  CHECK(schur_->MakeExact()) << "the pose Schur complement is numerically not positive definite";
+  queried_ = true;
+}
+
 Vector6d InformationFilter::pose(int frame_id) const {
   CheckRecovered();
   return state_.segment<6>(StateIndex(VariableRef::Pose(frame_id)));
@@ -373,7 +416,7 @@ Eigen::Map<const Eigen::SparseMatrix<double>> InformationFilter::information_upp
 Eigen::SparseMatrix<double> InformationFilter::Information() const { return matrix_.Full(); }
 
 double InformationFilter::LogDetInformation() const {
-  CheckRecovered();
+  EnsureExactFactor();
   return schur_ != nullptr ? schur_->LogDet() : cholesky_->LogDet();
 }
 
@@ -389,7 +432,7 @@ std::vector<int> InformationFilter::ScalarIndices(const std::vector<VariableRef>
 
 Eigen::MatrixXd InformationFilter::MarginalCovariance(
     const std::vector<VariableRef>& variables) const {
-  CheckRecovered();
+  EnsureExactFactor();
   const std::vector<int> indices = ScalarIndices(variables);
   return schur_ != nullptr ? schur_->InverseSubmatrix(indices)
                            : cholesky_->InverseSubmatrix(indices);

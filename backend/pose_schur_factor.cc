@@ -33,6 +33,7 @@ bool FactorInPlace(Eigen::MatrixXd* T) {
 PoseSchurFactor::PoseSchurFactor(const PoseSchurOptions& options) : options_(options) {
   CHECK_GE(options_.prefetch, 0);
   CHECK_GE(options_.evict_after, 1);
+  CHECK_GE(options_.cg_flop_weight, 0.0);
 }
 
 void PoseSchurFactor::Grow(int n) {
@@ -45,10 +46,10 @@ void PoseSchurFactor::Grow(int n) {
 
 bool PoseSchurFactor::AddPose(int pose_offset, const Eigen::Matrix<double, 6, 6>& I_pp,
                               const std::vector<SchurObservation>& observations,
-                              bool refactor) {
+                              SchurUpdate update) {
   CHECK_EQ(pose_of_offset_.count(pose_offset), 0u) << "pose offset " << pose_offset << " taken";
   const int k = num_poses();
-  const int old_n = dim();
+  const bool was_exact = exact();
   // The poses whose Schur blocks change: every pose that saw a re-observed feature.
   std::vector<int> touched;
   for (const SchurObservation& obs : observations) {
@@ -61,31 +62,31 @@ bool PoseSchurFactor::AddPose(int pose_offset, const Eigen::Matrix<double, 6, 6>
   std::sort(touched.begin(), touched.end());
   touched.erase(std::unique(touched.begin(), touched.end()), touched.end());
   const int t = static_cast<int>(touched.size());
-  std::vector<int> local(k, -1);
-  for (int i = 0; i < t; ++i) local[touched[i]] = i;
+  const bool lazy = update == SchurUpdate::kLazy && valid_ && t > 0 && LazyIsCheaper(touched);
+  // Anything else changes S itself: first the lazy updates' changes.
+  if (!lazy) Sync();
 
   // D: the change of S on the touched poses and the new pose's row (local block t).
-  Eigen::MatrixXd D = Eigen::MatrixXd::Zero(6 * (t + 1), 6 * (t + 1));
-  D.bottomRightCorner<6, 6>() = I_pp;
-  struct Saved {
-    int index;
-    Eigen::Matrix3d F, F_inv;
-    double log_det;
-  };
-  std::vector<Saved> saved;
+  std::vector<int> local(k, -1);
+  for (int i = 0; i < t; ++i) local[touched[i]] = i;
+  Eigen::MatrixXd D;
+  if (!lazy) {
+    D = Eigen::MatrixXd::Zero(6 * (t + 1), 6 * (t + 1));
+    D.bottomRightCorner<6, 6>() = I_pp;
+  }
   std::vector<Eigen::Matrix3d> new_inverse(observations.size());
   for (size_t o = 0; o < observations.size(); ++o) {
     const SchurObservation& obs = observations[o];
     const Matrix63& G = obs.I_pf;
     if (obs.is_new) {
       new_inverse[o] = SymmetricInverse(obs.I_ff);
-      D.bottomRightCorner<6, 6>() -= G * new_inverse[o] * G.transpose();
+      if (!lazy) D.bottomRightCorner<6, 6>() -= G * new_inverse[o] * G.transpose();
       continue;
     }
-    const int index = feature_of_offset_.at(obs.feature_offset);
-    const Feature& feature = features_[index];
+    const Feature& feature = features_[feature_of_offset_.at(obs.feature_offset)];
     const Eigen::Matrix3d F_inv_new = SymmetricInverse(feature.F + obs.I_ff);
     new_inverse[o] = F_inv_new;
+    if (lazy) continue;
     // F^-1 - F'^-1 = F^-1 A F'^-1 without the cancellation of the difference.
     Eigen::Matrix3d M = feature.F_inv * obs.I_ff * F_inv_new;
     M = 0.5 * (M + M.transpose());
@@ -103,22 +104,29 @@ bool PoseSchurFactor::AddPose(int pose_offset, const Eigen::Matrix<double, 6, 6>
     }
     D.bottomRightCorner<6, 6>() -= G * F_inv_new * G.transpose();
   }
-  D.triangularView<Eigen::StrictlyLower>() = D.transpose();
 
-  // Apply to S and the features, keeping what a failure has to restore.
+  // Apply to S (unless lazy) and the features, keeping what a failure has to restore.
+  const int old_n = dim();
   std::vector<int> scalar;  // S rows of the touched poses
-  for (const int pose : touched) {
-    for (int c = 0; c < 6; ++c) scalar.push_back(6 * pose + c);
+  Eigen::MatrixXd S_saved;
+  if (!lazy) {
+    D.triangularView<Eigen::StrictlyLower>() = D.transpose();
+    for (const int pose : touched) {
+      for (int c = 0; c < 6; ++c) scalar.push_back(6 * pose + c);
+    }
+    S_saved = S_(scalar, scalar);
+    Grow(old_n + 6);
+    S_(scalar, scalar) += D.topLeftCorner(6 * t, 6 * t);
+    S_.block(0, old_n, old_n, 6).setZero();
+    S_.block(old_n, 0, 6, old_n).setZero();
+    S_(scalar, Eigen::seqN(old_n, 6)) = D.topRightCorner(6 * t, 6);
+    S_(Eigen::seqN(old_n, 6), scalar) = D.bottomLeftCorner(6, 6 * t);
+    S_.block<6, 6>(old_n, old_n) = D.bottomRightCorner<6, 6>();
+    synced_poses_ = k + 1;
   }
-  const Eigen::MatrixXd S_saved = S_(scalar, scalar);
-  Grow(old_n + 6);
-  S_(scalar, scalar) += D.topLeftCorner(6 * t, 6 * t);
-  S_.block(0, old_n, old_n, 6).setZero();
-  S_.block(old_n, 0, 6, old_n).setZero();
-  S_(scalar, Eigen::seqN(old_n, 6)) = D.topRightCorner(6 * t, 6);
-  S_(Eigen::seqN(old_n, 6), scalar) = D.bottomLeftCorner(6, 6 * t);
-  S_.block<6, 6>(old_n, old_n) = D.bottomRightCorner<6, 6>();
+  std::vector<std::pair<int, Feature>> saved;  // re-observed features as they were
   const int old_features = static_cast<int>(features_.size());
+  const size_t old_unsynced = unsynced_.size();
   for (size_t o = 0; o < observations.size(); ++o) {
     const SchurObservation& obs = observations[o];
     int index;
@@ -129,8 +137,10 @@ bool PoseSchurFactor::AddPose(int pose_offset, const Eigen::Matrix<double, 6, 6>
       feature_of_offset_[obs.feature_offset] = index;
     } else {
       index = feature_of_offset_.at(obs.feature_offset);
-      const Feature& old = features_[index];
-      saved.push_back({index, old.F, old.F_inv, old.log_det});
+      Feature old = features_[index];
+      old.poses.clear();
+      old.couplings.clear();
+      saved.emplace_back(index, std::move(old));
     }
     Feature& feature = features_[index];
     feature.F += obs.I_ff;
@@ -138,115 +148,74 @@ bool PoseSchurFactor::AddPose(int pose_offset, const Eigen::Matrix<double, 6, 6>
     feature.log_det = 2.0 * feature.F.llt().matrixLLT().diagonal().array().log().sum();
     feature.poses.push_back(k);
     feature.couplings.push_back(obs.I_pf);
+    if (!lazy) {
+      feature.F_synced = feature.F;
+      feature.F_inv_synced = feature.F_inv;
+      feature.poses_synced = static_cast<int>(feature.poses.size());
+    } else if (!feature.unsynced) {
+      feature.unsynced = true;
+      unsynced_.push_back(index);
+    }
   }
   pose_offsets_.push_back(pose_offset);
   pose_of_offset_[pose_offset] = k;
+  pose_blocks_.push_back(I_pp);
+  num_couplings_ += static_cast<int64_t>(observations.size());
   const std::vector<int> saved_touched = last_touched_;
   for (const int pose : touched) last_touched_[pose] = updates_;
   last_touched_.push_back(updates_);
   ++updates_;
 
   bool ok = true;
-  if (!refactor) {
+  if (update == SchurUpdate::kDefer) {
     valid_ = false;
   } else if (!valid_) {
     ok = Refactor();
+  } else if (lazy) {
+    ok = PrepareLazyPreconditioner();  // false: S is not positive definite
   } else {
-    // Window positions: evicted poses first, then the ones kept, then anything moved in
-    // from the leading part, then the new pose.
-    const int lead = window_start_;
-    std::vector<int> evicted, kept, moved;
-    for (int q = lead; q < static_cast<int>(order_.size()); ++q) {
-      const int pose = order_[q];
-      (last_touched_[pose] + options_.evict_after <= updates_ ? evicted : kept).push_back(pose);
-    }
-    std::vector<char> move(k, 0);
-    for (const int pose : touched) {
-      if (position_[pose] >= lead) continue;
-      for (int q = std::max(0, pose - options_.prefetch);
-           q <= std::min(k - 1, pose + options_.prefetch); ++q) {
-        move[q] = position_[q] < lead;
-      }
-    }
-    int first = lead;
-    for (int q = 0; q < k; ++q) {
-      if (move[q]) first = std::min(first, position_[q]);
-    }
-    std::vector<int> order(order_.begin(), order_.begin() + first);
-    for (int q = first; q < lead; ++q) {
-      if (!move[order_[q]]) order.push_back(order_[q]);
-    }
-    for (int q = 0; q < k; ++q) {
-      if (move[q]) moved.push_back(q);
-    }
-    order.insert(order.end(), evicted.begin(), evicted.end());
-    const int window_start = static_cast<int>(order.size());
-    order.insert(order.end(), kept.begin(), kept.end());
-    order.insert(order.end(), moved.begin(), moved.end());
-    order.push_back(k);
-    if (first == lead) {
-      // The trailing block is C plus the change, in the new window order.
-      const int m = 6 * (k + 1 - lead);
-      Eigen::MatrixXd T = Eigen::MatrixXd::Zero(m, m);
-      std::vector<int> from(m);  // new window row -> old C row (-1: the new pose)
-      for (int q = lead; q <= k; ++q) {
-        const int old_q = order[q] == k ? -1 : position_[order[q]] - lead;
-        for (int c = 0; c < 6; ++c) from[6 * (q - lead) + c] = old_q < 0 ? -1 : 6 * old_q + c;
-      }
-      std::vector<int> rows, old_rows;
-      for (int r = 0; r < m; ++r) {
-        if (from[r] >= 0) {
-          rows.push_back(r);
-          old_rows.push_back(from[r]);
-        }
-      }
-      T(rows, rows) = C_(old_rows, old_rows);
-      std::vector<int> d_rows(m);  // new window row -> row of D (-1: untouched)
-      for (int q = lead; q <= k; ++q) {
-        const int pose = order[q];
-        const int l = pose == k ? t : local[pose];
-        for (int c = 0; c < 6; ++c) d_rows[6 * (q - lead) + c] = l < 0 ? -1 : 6 * l + c;
-      }
-      std::vector<int> w_rows, dd_rows;
-      for (int r = 0; r < m; ++r) {
-        if (d_rows[r] >= 0) {
-          w_rows.push_back(r);
-          dd_rows.push_back(d_rows[r]);
-        }
-      }
-      T(w_rows, w_rows) += D(dd_rows, dd_rows);
-      ok = FactorFrom(lead, order, window_start, &T);
+    const Plan plan = PlanWindow(DirtyPoses());
+    if (was_exact && plan.first == window_start_) {
+      const Eigen::MatrixXd T = UpdatedWindow(plan, local, D);
+      ok = FactorFrom(plan.first, plan.order, plan.window_start, &T);
     } else {
-      ok = FactorFrom(first, order, window_start, nullptr);
+      ok = FactorFrom(plan.first, plan.order, plan.window_start, nullptr);
     }
   }
   if (ok) return true;
 
   // Not positive definite: undo.
   for (auto it = saved.rbegin(); it != saved.rend(); ++it) {
-    features_[it->index].F = it->F;
-    features_[it->index].F_inv = it->F_inv;
-    features_[it->index].log_det = it->log_det;
+    Feature& feature = features_[it->first];
+    it->second.poses = std::move(feature.poses);
+    it->second.couplings = std::move(feature.couplings);
+    it->second.poses.pop_back();
+    it->second.couplings.pop_back();
+    feature = std::move(it->second);
   }
+  for (size_t u = old_unsynced; u < unsynced_.size(); ++u) {
+    if (unsynced_[u] < old_features) features_[unsynced_[u]].unsynced = false;
+  }
+  unsynced_.resize(old_unsynced);
   for (const SchurObservation& obs : observations) {
-    if (obs.is_new) {
-      feature_of_offset_.erase(obs.feature_offset);
-    } else {
-      Feature& feature = features_[feature_of_offset_.at(obs.feature_offset)];
-      feature.poses.pop_back();
-      feature.couplings.pop_back();
-    }
+    if (obs.is_new) feature_of_offset_.erase(obs.feature_offset);
   }
   features_.resize(old_features);
   pose_offsets_.pop_back();
+  pose_blocks_.pop_back();
+  num_couplings_ -= static_cast<int64_t>(observations.size());
   pose_of_offset_.erase(pose_offset);
   last_touched_ = saved_touched;
   --updates_;
-  S_(scalar, scalar) = S_saved;
+  if (!lazy) {
+    S_(scalar, scalar) = S_saved;
+    synced_poses_ = k;
+  }
   return false;
 }
 
 bool PoseSchurFactor::Refactor() {
+  Sync();
   const int k = num_poses();
   std::vector<int> lead, window;
   for (int q = 0; q < k; ++q) {
@@ -255,6 +224,99 @@ bool PoseSchurFactor::Refactor() {
   std::vector<int> order = lead;
   order.insert(order.end(), window.begin(), window.end());
   return FactorFrom(0, order, static_cast<int>(lead.size()), nullptr);
+}
+
+bool PoseSchurFactor::MakeExact() {
+  CHECK(valid_) << "no factor to make exact";
+  if (exact()) return true;
+  Sync();
+  const Plan plan = PlanWindow(DirtyPoses());
+  return FactorFrom(plan.first, plan.order, plan.window_start, nullptr);
+}
+
+std::vector<int> PoseSchurFactor::DirtyPoses() const {
+  std::vector<int> dirty;
+  for (int pose = 0; pose < static_cast<int>(order_.size()); ++pose) {
+    if (last_touched_[pose] >= exact_since_update_) dirty.push_back(pose);
+  }
+  return dirty;
+}
+
+PoseSchurFactor::Plan PoseSchurFactor::PlanWindow(const std::vector<int>& touched) const {
+  // Window positions: evicted poses first, then the ones kept, then anything moved in from
+  // the leading part, then the poses not yet factored.
+  const int k = static_cast<int>(order_.size());
+  const int lead = window_start_;
+  std::vector<int> evicted, kept;
+  for (int q = lead; q < k; ++q) {
+    const int pose = order_[q];
+    (last_touched_[pose] + options_.evict_after <= updates_ ? evicted : kept).push_back(pose);
+  }
+  std::vector<char> move(k, 0);
+  for (const int pose : touched) {
+    if (position_[pose] >= lead) continue;
+    for (int q = std::max(0, pose - options_.prefetch);
+         q <= std::min(k - 1, pose + options_.prefetch); ++q) {
+      move[q] = position_[q] < lead;
+    }
+  }
+  Plan plan;
+  plan.first = lead;
+  for (int q = 0; q < k; ++q) {
+    if (move[q]) plan.first = std::min(plan.first, position_[q]);
+  }
+  std::vector<int>& order = plan.order;
+  order.assign(order_.begin(), order_.begin() + plan.first);
+  for (int q = plan.first; q < lead; ++q) {
+    if (!move[order_[q]]) order.push_back(order_[q]);
+  }
+  order.insert(order.end(), evicted.begin(), evicted.end());
+  plan.window_start = static_cast<int>(order.size());
+  order.insert(order.end(), kept.begin(), kept.end());
+  for (int q = 0; q < k; ++q) {
+    if (move[q]) order.push_back(q);
+  }
+  for (int pose = k; pose < num_poses(); ++pose) order.push_back(pose);
+  return plan;
+}
+
+Eigen::MatrixXd PoseSchurFactor::UpdatedWindow(const Plan& plan, const std::vector<int>& local,
+                                               const Eigen::MatrixXd& D) const {
+  // The trailing block is C plus the change, in the new window order.
+  const int k = static_cast<int>(order_.size());  // the new pose
+  const int t = static_cast<int>(D.rows()) / 6 - 1;
+  const int lead = window_start_;
+  const std::vector<int>& order = plan.order;
+  const int m = 6 * (k + 1 - lead);
+  Eigen::MatrixXd T = Eigen::MatrixXd::Zero(m, m);
+  std::vector<int> from(m);  // new window row -> old C row (-1: the new pose)
+  for (int q = lead; q <= k; ++q) {
+    const int old_q = order[q] == k ? -1 : position_[order[q]] - lead;
+    for (int c = 0; c < 6; ++c) from[6 * (q - lead) + c] = old_q < 0 ? -1 : 6 * old_q + c;
+  }
+  std::vector<int> rows, old_rows;
+  for (int r = 0; r < m; ++r) {
+    if (from[r] >= 0) {
+      rows.push_back(r);
+      old_rows.push_back(from[r]);
+    }
+  }
+  T(rows, rows) = C_(old_rows, old_rows);
+  std::vector<int> d_rows(m);  // new window row -> row of D (-1: untouched)
+  for (int q = lead; q <= k; ++q) {
+    const int pose = order[q];
+    const int l = pose == k ? t : local[pose];
+    for (int c = 0; c < 6; ++c) d_rows[6 * (q - lead) + c] = l < 0 ? -1 : 6 * l + c;
+  }
+  std::vector<int> w_rows, dd_rows;
+  for (int r = 0; r < m; ++r) {
+    if (d_rows[r] >= 0) {
+      w_rows.push_back(r);
+      dd_rows.push_back(d_rows[r]);
+    }
+  }
+  T(w_rows, w_rows) += D(dd_rows, dd_rows);
+  return T;
 }
 
 bool PoseSchurFactor::FactorFrom(int first, const std::vector<int>& order, int window_start,
@@ -270,7 +332,7 @@ bool PoseSchurFactor::FactorFrom(int first, const std::vector<int>& order, int w
   if (f6 > 0) {
     for (int q = first; q < static_cast<int>(order.size()); ++q) {
       const int pose = order[q];
-      if (pose >= static_cast<int>(position_.size())) continue;  // new: no coupling before
+      if (pose >= static_cast<int>(order_.size())) continue;  // not factored: none before
       L_lead.middleRows<6>(6 * (q - first)) = L_.block(6 * position_[pose], 0, 6, f6);
     }
   }
@@ -308,52 +370,59 @@ bool PoseSchurFactor::FactorFrom(int first, const std::vector<int>& order, int w
   window_start_ = window_start;
   C_ = std::move(C);
   valid_ = true;
+  lazy_B_.resize(0, 0);
+  exact_since_update_ = updates_;
+  lazy_flops_ = 0.0;
+  baseline_iterations_ = -1;
   return true;
 }
 
-Eigen::VectorXd PoseSchurFactor::Solve(const Eigen::VectorXd& info_vector) const {
-  CHECK(valid_) << "no valid factor";
-  const int n = dim();
-  Eigen::VectorXd b(n);  // in factor positions
+Eigen::VectorXd PoseSchurFactor::ReducedRhs(const Eigen::VectorXd& info_vector) const {
+  Eigen::VectorXd b(dim());
   for (int pose = 0; pose < num_poses(); ++pose) {
     b.segment<6>(6 * position_[pose]) = info_vector.segment<6>(pose_offsets_[pose]);
   }
-  std::vector<Eigen::Vector3d> y(features_.size());
-  for (size_t index = 0; index < features_.size(); ++index) {
-    const Feature& feature = features_[index];
-    y[index] = feature.F_inv * info_vector.segment<3>(feature.offset);
+  for (const Feature& feature : features_) {
+    const Eigen::Vector3d y = feature.F_inv * info_vector.segment<3>(feature.offset);
     for (size_t e = 0; e < feature.poses.size(); ++e) {
-      b.segment<6>(6 * position_[feature.poses[e]]) -= feature.couplings[e] * y[index];
+      b.segment<6>(6 * position_[feature.poses[e]]) -= feature.couplings[e] * y;
     }
   }
-  const auto L = L_.topLeftCorner(n, n).triangularView<Eigen::Lower>();
-  if (b.size() > 0) {
-    L.solveInPlace(b);
-    L.transpose().solveInPlace(b);
-  }
+  return b;
+}
+
+Eigen::VectorXd PoseSchurFactor::FullState(const Eigen::VectorXd& info_vector,
+                                           const Eigen::VectorXd& x_p) const {
   Eigen::VectorXd x(info_vector.size());
   for (int pose = 0; pose < num_poses(); ++pose) {
-    x.segment<6>(pose_offsets_[pose]) = b.segment<6>(6 * position_[pose]);
+    x.segment<6>(pose_offsets_[pose]) = x_p.segment<6>(6 * position_[pose]);
   }
   for (const Feature& feature : features_) {
     Eigen::Vector3d r = info_vector.segment<3>(feature.offset);
     for (size_t e = 0; e < feature.poses.size(); ++e) {
-      r -= feature.couplings[e].transpose() * b.segment<6>(6 * position_[feature.poses[e]]);
+      r -= feature.couplings[e].transpose() * x_p.segment<6>(6 * position_[feature.poses[e]]);
     }
     x.segment<3>(feature.offset) = feature.F_inv * r;
   }
   return x;
 }
 
+Eigen::VectorXd PoseSchurFactor::Solve(const Eigen::VectorXd& info_vector) const {
+  CHECK(exact()) << "no exact factor";
+  Eigen::VectorXd x_p = ReducedRhs(info_vector);
+  ApplyPreconditioner(&x_p);
+  return FullState(info_vector, x_p);
+}
+
 double PoseSchurFactor::LogDet() const {
-  CHECK(valid_) << "no valid factor";
+  CHECK(exact()) << "no exact factor";
   double sum = 0.0;
   for (const Feature& feature : features_) sum += feature.log_det;
   return sum + 2.0 * L_.topLeftCorner(dim(), dim()).diagonal().array().log().sum();
 }
 
 Eigen::MatrixXd PoseSchurFactor::InverseSubmatrix(const std::vector<int>& indices) const {
-  CHECK(valid_) << "no valid factor";
+  CHECK(exact()) << "no exact factor";
   const int n = dim(), k = static_cast<int>(indices.size());
   // Each wanted scalar as (feature index or -1, pose index or -1, component).
   std::vector<std::pair<int, int>> feature_of(k, {-1, 0});

@@ -445,6 +445,63 @@ TEST_P(InformationFilterTest, InPlaceUpdatesAndOrderingDoNotChangeTheResult) {
   }
 }
 
+// Lazy refactoring (the state by conjugate gradients between exact factorisations) is a
+// matter of speed only: through a trajectory that comes back over its start (a loop
+// closure: the last poses re-observe the first poses' features), every state agrees with
+// refactoring at every update, and the state, log det and covariances with the dense filter.
+TEST(InformationFilterLazyTest, AgreesWithRefactoringEveryUpdateThroughALoopClosure) {
+  std::mt19937 rng(31);
+  Scene scene = MakeScene(12, 90, &rng);
+  for (int i = 11; i >= 0; --i) {
+    scene.frame_ids.push_back(1000 + i);
+    Vector6d pose = scene.poses[i];
+    pose[1] += 0.15;
+    pose[3] += 0.02;
+    scene.poses.push_back(pose);
+  }
+  const int num_poses = static_cast<int>(scene.poses.size());
+  InformationFilterOptions lazy_options;
+  lazy_options.cg_flop_weight = 0.0;  // lazy whenever it may be
+  InformationFilterOptions exact_options;
+  exact_options.iterative_recovery = false;
+  InformationFilter lazy(lazy_options, scene.camera), exact(exact_options, scene.camera);
+  testing::DenseReferenceFilter dense(exact_options.anchor_information, scene.camera);
+  const std::vector<FeatureObservation> first = Observe(scene, 0, true, &rng);
+  lazy.AddFirstPose(scene.frame_ids[0], scene.poses[0], first);
+  exact.AddFirstPose(scene.frame_ids[0], scene.poses[0], first);
+  dense.AddFirstPose(scene.frame_ids[0], scene.poses[0], first);
+  int iterative = 0;
+  for (int i = 1; i < num_poses; ++i) {
+    const std::vector<FeatureObservation> observations = Observe(scene, i, true, &rng);
+    const Vector6d initial = Perturb(scene.poses[i], 0.02, 0.01, &rng);
+    lazy.AddPose(scene.frame_ids[i], initial, observations);
+    exact.AddPose(scene.frame_ids[i], initial, observations);
+    dense.AddPose(scene.frame_ids[i], initial, observations);
+    iterative += lazy.last_timings().cg_iterations > 0 ? 1 : 0;
+    EXPECT_EQ(exact.last_timings().cg_iterations, 0);
+    EXPECT_LT((lazy.state() - exact.state()).norm(), 1e-9) << "pose " << i;
+  }
+  EXPECT_GT(iterative, num_poses / 3);  // the others: refactoring was as cheap
+  for (int id : lazy.frame_ids()) {
+    EXPECT_LT((lazy.pose(id) - dense.pose(id)).norm(), 1e-9) << "frame " << id;
+  }
+  for (int64_t id : lazy.feature_ids()) {
+    EXPECT_LT((lazy.feature(id) - dense.feature(id)).norm(), 1e-9) << "feature " << id;
+  }
+  EXPECT_NEAR(lazy.LogDetInformation(), dense.LogDetInformation(),
+              1e-9 * std::abs(dense.LogDetInformation()));
+  // The first pose of the loop and a feature of its start, jointly.
+  const int loop = scene.frame_ids[1];
+  const int64_t feature = lazy.feature_ids()[2];
+  std::vector<int> indices;
+  for (int k = 0; k < 6; ++k) indices.push_back(dense.PoseIndex(loop) + k);
+  for (int k = 0; k < 3; ++k) indices.push_back(dense.FeatureIndex(feature) + k);
+  EXPECT_LT(RelativeDifference(
+                lazy.MarginalCovariance({VariableRef::Pose(loop), VariableRef::Feature(feature)}),
+                dense.CovarianceOf(indices)),
+            1e-9);
+}
+
 TEST_P(InformationFilterTest, SameInputsGiveABitIdenticalState) {
   std::mt19937 rng_a(15), rng_b(15);
   const Scene scene = MakeScene(7, 60, &rng_a);

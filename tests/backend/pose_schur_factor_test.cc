@@ -21,7 +21,7 @@ struct RandomProblem {
 
   // Adds pose k observing the features around place(k) (a triangle wave over 12 places, 6
   // features each); `factor` gets it with or without refactoring.
-  bool AddPose(int k, PoseSchurFactor* factor, bool refactor) {
+  bool AddPose(int k, PoseSchurFactor* factor, SchurUpdate update) {
     const int place = std::abs((k + 6) % 24 - 12);
     std::normal_distribution<double> normal(0.0, 1.0);
     std::vector<SchurObservation> observations;
@@ -58,7 +58,7 @@ struct RandomProblem {
       I.block<3, 6>(obs.feature_offset, pose_offset) = obs.I_pf.transpose();
     }
     pose_offsets.push_back(pose_offset);
-    return factor->AddPose(pose_offset, I_pp, observations, refactor);
+    return factor->AddPose(pose_offset, I_pp, observations, update);
   }
 
   void ExpectAgreement(const PoseSchurFactor& factor) {
@@ -95,7 +95,7 @@ TEST(PoseSchurFactorTest, AgreesWithTheDenseFactorThroughEvictionsAndMoves) {
       RandomProblem problem(prefetch * 10 + evict_after);
       PoseSchurFactor factor({prefetch, evict_after});
       for (int k = 0; k < 40; ++k) {
-        ASSERT_TRUE(problem.AddPose(k, &factor, true)) << "pose " << k;
+        ASSERT_TRUE(problem.AddPose(k, &factor, SchurUpdate::kExact)) << "pose " << k;
         if (k % 7 == 3) {
           SCOPED_TRACE(::testing::Message() << "pose " << k);
           problem.ExpectAgreement(factor);
@@ -109,19 +109,58 @@ TEST(PoseSchurFactorTest, AgreesWithTheDenseFactorThroughEvictionsAndMoves) {
 TEST(PoseSchurFactorTest, DeferredAdditionsThenRefactorAgree) {
   RandomProblem problem(3);
   PoseSchurFactor factor({2, 3});
-  for (int k = 0; k < 20; ++k) ASSERT_TRUE(problem.AddPose(k, &factor, false));
+  for (int k = 0; k < 20; ++k) ASSERT_TRUE(problem.AddPose(k, &factor, SchurUpdate::kDefer));
   EXPECT_FALSE(factor.valid());
   ASSERT_TRUE(factor.Refactor());
   problem.ExpectAgreement(factor);
-  for (int k = 20; k < 30; ++k) ASSERT_TRUE(problem.AddPose(k, &factor, true));
+  for (int k = 20; k < 30; ++k) ASSERT_TRUE(problem.AddPose(k, &factor, SchurUpdate::kExact));
   problem.ExpectAgreement(factor);
+}
+
+// Lazy updates: the factor is a preconditioner between exact factorisations, and the state
+// comes from conjugate gradients warm-started at the previous solution. Through the
+// trajectory's returns (every pose re-observes features of poses long left) each solve
+// agrees with the dense one, and the factor made exact agrees in full.
+TEST(PoseSchurFactorTest, LazyUpdatesSolveAsTheDenseFactorThroughReturns) {
+  for (const int evict_after : {1, 3}) {
+    SCOPED_TRACE(::testing::Message() << "evict_after " << evict_after);
+    RandomProblem problem(40 + evict_after);
+    PoseSchurFactor factor({2, evict_after});
+    std::uniform_real_distribution<double> uniform(-1.0, 1.0);
+    Eigen::VectorXd previous;
+    int lazy = 0, iterations = 0;
+    for (int k = 0; k < 60; ++k) {
+      ASSERT_TRUE(problem.AddPose(k, &factor, SchurUpdate::kLazy)) << "pose " << k;
+      lazy += factor.exact() ? 0 : 1;
+      Eigen::VectorXd i(problem.dim);
+      for (int r = 0; r < problem.dim; ++r) i[r] = uniform(problem.rng);
+      const Eigen::VectorXd x = Eigen::LLT<Eigen::MatrixXd>(problem.I).solve(i);
+      Eigen::VectorXd guess = previous;
+      guess.conservativeResize(problem.dim);
+      guess.tail(problem.dim - previous.size()).setZero();
+      Eigen::VectorXd solution;
+      ASSERT_TRUE(factor.SolveIteratively(i, guess, &solution)) << "pose " << k;
+      iterations += factor.last_cg_iterations();
+      EXPECT_LT((solution - x).norm(), 1e-9 * x.norm()) << "pose " << k;
+      previous = solution;
+    }
+    // Refactoring this small S is cheap, yet many updates are lazy (the cost rule).
+    EXPECT_GT(lazy, 10);
+    EXPECT_GT(iterations, 0);
+    ASSERT_TRUE(factor.MakeExact());
+    EXPECT_TRUE(factor.exact());
+    problem.ExpectAgreement(factor);
+    // And exact updates go on from there.
+    for (int k = 60; k < 66; ++k) ASSERT_TRUE(problem.AddPose(k, &factor, SchurUpdate::kExact));
+    problem.ExpectAgreement(factor);
+  }
 }
 
 // A pose with no information makes the matrix singular: refused, and nothing changes.
 TEST(PoseSchurFactorTest, AFailedAdditionLeavesTheFactorUnchanged) {
   RandomProblem problem(5);
   PoseSchurFactor factor({1, 2});
-  for (int k = 0; k < 25; ++k) ASSERT_TRUE(problem.AddPose(k, &factor, true));
+  for (int k = 0; k < 25; ++k) ASSERT_TRUE(problem.AddPose(k, &factor, SchurUpdate::kExact));
   const Eigen::VectorXd i = Eigen::VectorXd::LinSpaced(problem.dim, -1.0, 1.0);
   const Eigen::VectorXd before = factor.Solve(i);
   const double log_det = factor.LogDet();
@@ -130,12 +169,35 @@ TEST(PoseSchurFactorTest, AFailedAdditionLeavesTheFactorUnchanged) {
   obs.feature_offset = problem.offset_of.begin()->second;
   std::vector<SchurObservation> observations = {obs};
   EXPECT_FALSE(factor.AddPose(problem.dim, Eigen::Matrix<double, 6, 6>::Zero(), observations,
-                              true));
+                              SchurUpdate::kExact));
   EXPECT_EQ(factor.num_poses(), 25);
   EXPECT_EQ((factor.Solve(i) - before).norm(), 0.0);
   EXPECT_EQ(factor.LogDet(), log_det);
   // And it goes on as if the failed pose had never come.
-  for (int k = 25; k < 35; ++k) ASSERT_TRUE(problem.AddPose(k, &factor, true));
+  for (int k = 25; k < 35; ++k) ASSERT_TRUE(problem.AddPose(k, &factor, SchurUpdate::kExact));
+  problem.ExpectAgreement(factor);
+}
+
+// The same between lazy updates (cg_flop_weight 0: lazy whenever it may be): the singular
+// pose is refused, and the solves go on as before.
+TEST(PoseSchurFactorTest, ALazyAdditionThatIsNotPositiveDefiniteIsRefused) {
+  RandomProblem problem(6);
+  PoseSchurFactor factor({1, 2, 1e-10, 60, 0.0});
+  for (int k = 0; k < 25; ++k) ASSERT_TRUE(problem.AddPose(k, &factor, SchurUpdate::kLazy));
+  ASSERT_FALSE(factor.exact());
+  const Eigen::VectorXd i = Eigen::VectorXd::LinSpaced(problem.dim, -1.0, 1.0);
+  const Eigen::VectorXd zero = Eigen::VectorXd::Zero(problem.dim);
+  Eigen::VectorXd before, after;
+  ASSERT_TRUE(factor.SolveIteratively(i, zero, &before));
+  SchurObservation obs;
+  obs.feature_offset = problem.offset_of.begin()->second;
+  EXPECT_FALSE(factor.AddPose(problem.dim, Eigen::Matrix<double, 6, 6>::Zero(), {obs},
+                              SchurUpdate::kLazy));
+  EXPECT_EQ(factor.num_poses(), 25);
+  ASSERT_TRUE(factor.SolveIteratively(i, zero, &after));
+  EXPECT_EQ((after - before).norm(), 0.0);
+  for (int k = 25; k < 35; ++k) ASSERT_TRUE(problem.AddPose(k, &factor, SchurUpdate::kLazy));
+  ASSERT_TRUE(factor.MakeExact());
   problem.ExpectAgreement(factor);
 }
 

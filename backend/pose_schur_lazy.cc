@@ -1,0 +1,221 @@
+// PoseSchurFactor's lazy updates (pose_schur_factor.h): the choice between a lazy and an
+// exact update, the preconditioner, conjugate gradients, and bringing S_ up to date before
+// the next factorisation.
+#include <algorithm>
+#include <utility>
+
+#include <Eigen/Cholesky>
+#include <glog/logging.h>
+
+#include "backend/pose_schur_factor.h"
+
+namespace ieslam {
+
+namespace {
+
+double Square(double x) { return x * x; }
+
+}  // namespace
+
+bool PoseSchurFactor::LazyIsCheaper(const std::vector<int>& touched) const {
+  const int k = num_poses();
+  std::vector<int> dirty = DirtyPoses();
+  for (const int pose : touched) {
+    if (pose < static_cast<int>(order_.size())) dirty.push_back(pose);
+  }
+  // Flops of the exact update: the rank update forming the trailing block from S (unless
+  // the window's C can be updated), and its factorisation.
+  const Plan plan = PlanWindow(dirty);
+  const bool fast = exact() && plan.first == window_start_;
+  const double m = 6.0 * (k + 1 - plan.first);
+  const double exact_flops = (fast ? 0.0 : 0.5 * m * m * 6.0 * plan.first) + m * m * m / 6.0;
+  // Of the lazy one: CG (as many iterations as last time) and the new poses' block C.
+  const double lazy_n = 6.0 * (k + 1 - static_cast<int>(order_.size()));
+  const double iteration = options_.cg_flop_weight * CgIterationFlops();
+  const int expected = std::max(last_cg_iterations_, 1);
+  const double prepare = LazyPreparationFlops(lazy_n);
+  // Exact when refactoring costs less than the lazy solve (as in the first loop, where the
+  // window keeps it small). Else lazy until the lazy updates since the last exact factor
+  // have cost, beyond what they cost right after it (more iterations as the factor ages,
+  // a growing block C), as much as refactoring: the ski-rental rule, within twice the
+  // cost of the best schedule in hindsight.
+  if (exact_flops <= expected * iteration + prepare) return false;
+  const int excess = baseline_iterations_ < 0 ? 0 : std::max(expected - baseline_iterations_, 0);
+  return lazy_flops_ + excess * iteration + prepare < exact_flops;
+}
+
+double PoseSchurFactor::LazyPreparationFlops(double lazy_n) const {
+  // Factoring C, and a 6x6 block product for each lazy observation and each other
+  // observation of its feature.
+  const double couplings = static_cast<double>(num_couplings_);
+  const double per_pose = couplings / std::max(num_poses(), 1);
+  const double per_feature = couplings / std::max<double>(features_.size(), 1.0);
+  return lazy_n * lazy_n * lazy_n / 6.0 + 108.0 * lazy_n / 6.0 * per_pose * per_feature;
+}
+
+void PoseSchurFactor::Sync() {
+  const int k = num_poses(), synced = synced_poses_;
+  if (synced == k && unsynced_.empty()) return;
+  Grow(6 * k);
+  if (k > synced) {
+    S_.block(0, 6 * synced, 6 * k, 6 * (k - synced)).setZero();
+    S_.block(6 * synced, 0, 6 * (k - synced), 6 * synced).setZero();
+    for (int pose = synced; pose < k; ++pose) S_.block<6, 6>(6 * pose, 6 * pose) = pose_blocks_[pose];
+  }
+  for (const int index : unsynced_) {
+    Feature& feature = features_[index];
+    // Pairs of poses that S has seen: F_synced^-1 - F^-1; pairs with a new pose: -F^-1.
+    const int a = feature.poses_synced, p = static_cast<int>(feature.poses.size());
+    Eigen::Matrix3d M = Eigen::Matrix3d::Zero();
+    if (a > 0) {
+      M = feature.F_inv_synced * (feature.F - feature.F_synced) * feature.F_inv;
+      M = 0.5 * (M + M.transpose());
+    }
+    std::vector<Eigen::Matrix<double, 3, 6>> MBt(p), FBt(p);
+    for (int j = 0; j < p; ++j) {
+      MBt[j] = M * feature.couplings[j].transpose();
+      FBt[j] = feature.F_inv * feature.couplings[j].transpose();
+    }
+    for (int i = 0; i < p; ++i) {
+      for (int j = 0; j < p; ++j) {
+        auto block = S_.block<6, 6>(6 * feature.poses[i], 6 * feature.poses[j]);
+        if (i < a && j < a) {
+          block.noalias() += feature.couplings[i] * MBt[j];
+        } else {
+          block.noalias() -= feature.couplings[i] * FBt[j];
+        }
+      }
+    }
+    feature.F_synced = feature.F;
+    feature.F_inv_synced = feature.F_inv;
+    feature.poses_synced = p;
+    feature.unsynced = false;
+  }
+  unsynced_.clear();
+  synced_poses_ = k;
+}
+
+bool PoseSchurFactor::PrepareLazyPreconditioner() {
+  const int factored = static_cast<int>(order_.size());
+  const int old_n = 6 * factored, lazy_n = dim() - old_n;
+  // S's blocks of the poses not in L, from the features (S itself is not kept up to date
+  // by lazy updates): C = S_NN and B = S_old,N, for M = [M_old + B C^-1 B^T, B; B^T, C].
+  Eigen::MatrixXd C = Eigen::MatrixXd::Zero(lazy_n, lazy_n);
+  Eigen::MatrixXd B = Eigen::MatrixXd::Zero(old_n, lazy_n);
+  for (int pose = factored; pose < num_poses(); ++pose) {
+    C.block<6, 6>(6 * (pose - factored), 6 * (pose - factored)) = pose_blocks_[pose];
+  }
+  for (const Feature& feature : features_) {
+    const int p = static_cast<int>(feature.poses.size());
+    // Poses are appended in order: the lazy poses' observations come last.
+    for (int e = p - 1; e >= 0 && feature.poses[e] >= factored; --e) {
+      const Eigen::Matrix<double, 3, 6> V = feature.F_inv * feature.couplings[e].transpose();
+      const int col = 6 * (feature.poses[e] - factored);
+      for (int i = 0; i < p; ++i) {
+        const int pose = feature.poses[i];
+        if (pose >= factored) {
+          C.block<6, 6>(6 * (pose - factored), col).noalias() -= feature.couplings[i] * V;
+        } else {
+          B.block<6, 6>(6 * position_[pose], col).noalias() -= feature.couplings[i] * V;
+        }
+      }
+    }
+  }
+  Eigen::LLT<Eigen::MatrixXd> llt(C);
+  if (llt.info() != Eigen::Success || !(llt.matrixLLT().diagonal().minCoeff() > 0.0)) return false;
+  lazy_llt_ = std::move(llt);
+  lazy_B_ = std::move(B);
+  position_.resize(num_poses());
+  for (int pose = factored; pose < num_poses(); ++pose) position_[pose] = pose;
+  lazy_flops_ += LazyPreparationFlops(lazy_n);
+  return true;
+}
+
+void PoseSchurFactor::ApplyPreconditioner(Eigen::VectorXd* z) const {
+  // Block elimination of M = [M_old + B C^-1 B^T, B; B^T, C], the lazy poses first.
+  const int old_n = 6 * static_cast<int>(order_.size()), lazy_n = dim() - old_n;
+  auto z_old = z->head(old_n);
+  auto z_lazy = z->tail(lazy_n);
+  Eigen::VectorXd y;
+  if (lazy_n > 0) {
+    y = lazy_llt_.solve(z_lazy);
+    z_old.noalias() -= lazy_B_ * y;
+  }
+  if (old_n > 0) {
+    const auto L = L_.topLeftCorner(old_n, old_n).triangularView<Eigen::Lower>();
+    L.solveInPlace(z_old);
+    L.transpose().solveInPlace(z_old);
+  }
+  if (lazy_n > 0) z_lazy = y - lazy_llt_.solve(lazy_B_.transpose() * z_old);
+}
+
+void PoseSchurFactor::MultiplyS(const Eigen::VectorXd& x, Eigen::VectorXd* y) const {
+  y->resize(dim());
+  for (int pose = 0; pose < num_poses(); ++pose) {
+    const int row = 6 * position_[pose];
+    y->segment<6>(row).noalias() = pose_blocks_[pose] * x.segment<6>(row);
+  }
+  for (const Feature& feature : features_) {
+    Eigen::Vector3d u = Eigen::Vector3d::Zero();
+    for (size_t e = 0; e < feature.poses.size(); ++e) {
+      u.noalias() += feature.couplings[e].transpose() * x.segment<6>(6 * position_[feature.poses[e]]);
+    }
+    const Eigen::Vector3d v = feature.F_inv * u;
+    for (size_t e = 0; e < feature.poses.size(); ++e) {
+      y->segment<6>(6 * position_[feature.poses[e]]).noalias() -= feature.couplings[e] * v;
+    }
+  }
+}
+
+double PoseSchurFactor::CgIterationFlops() const {
+  const double old_n = 6.0 * static_cast<double>(order_.size());
+  return Square(old_n) + 4.0 * old_n * (dim() - old_n) + 72.0 * static_cast<double>(num_couplings_);
+}
+
+bool PoseSchurFactor::SolveIteratively(const Eigen::VectorXd& info_vector,
+                                       const Eigen::VectorXd& guess, Eigen::VectorXd* x) {
+  CHECK(valid_) << "no valid factor";
+  last_cg_iterations_ = 0;
+  if (exact()) {
+    *x = Solve(info_vector);
+    return true;
+  }
+  // Preconditioned conjugate gradients on S x_p = b. With M <= S, r^T M^-1 r >=
+  // r^T S^-1 r = e^T S e: the stopping test bounds the error's Mahalanobis norm.
+  const Eigen::VectorXd b = ReducedRhs(info_vector);
+  Eigen::VectorXd x_p(dim());
+  for (int pose = 0; pose < num_poses(); ++pose) {
+    x_p.segment<6>(6 * position_[pose]) = guess.segment<6>(pose_offsets_[pose]);
+  }
+  Eigen::VectorXd q;
+  MultiplyS(x_p, &q);
+  Eigen::VectorXd r = b - q;
+  Eigen::VectorXd z = r;
+  ApplyPreconditioner(&z);
+  double rz = r.dot(z);
+  Eigen::VectorXd p = z;
+  const double tolerance = Square(options_.cg_tolerance);
+  int iterations = 0;
+  while (!(rz <= tolerance) && iterations < options_.cg_max_iterations) {
+    MultiplyS(p, &q);
+    const double pq = p.dot(q);
+    if (!(pq > 0.0)) break;
+    const double alpha = rz / pq;
+    x_p += alpha * p;
+    r -= alpha * q;
+    z = r;
+    ApplyPreconditioner(&z);
+    const double rz_next = r.dot(z);
+    p = z + (rz_next / rz) * p;
+    rz = rz_next;
+    ++iterations;
+  }
+  last_cg_iterations_ = iterations;
+  if (baseline_iterations_ < 0) baseline_iterations_ = iterations;
+  lazy_flops_ +=
+      options_.cg_flop_weight * std::max(iterations - baseline_iterations_, 0) * CgIterationFlops();
+  *x = FullState(info_vector, x_p);
+  return rz <= tolerance;
+}
+
+}  // namespace ieslam
