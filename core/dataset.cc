@@ -108,12 +108,7 @@ Frame Dataset::Load(int i) const {
                     "-bit with " + std::to_string(raw.channels()) + " channel(s)");
   }
   RequireSize(raw, rig_.range.camera, info.depth_path, "range image", rig_.name, i);
-  frame.depth.create(raw.rows, raw.cols, CV_32FC1);
-  for (int r = 0; r < raw.rows; ++r) {
-    const uint16_t* in = raw.ptr<uint16_t>(r);
-    float* out = frame.depth.ptr<float>(r);
-    for (int c = 0; c < raw.cols; ++c) out[c] = static_cast<float>(rig_.range.RawToMetres(in[c]));
-  }
+  frame.depth = RangeImageToMetres(raw, rig_.range);
   return frame;
 }
 
@@ -176,6 +171,17 @@ std::unique_ptr<Dataset> OpenDataset(const std::string& directory, const Dataset
   if (format == "tum") return std::make_unique<TumDataset>(directory, options);
   if (format == "7scenes") return std::make_unique<SevenScenesDataset>(directory, options);
   return std::make_unique<PairDataset>(directory, options);
+}
+
+cv::Mat RangeImageToMetres(const cv::Mat& raw, const RangeImager& imager) {
+  CHECK_EQ(raw.type(), CV_16UC1);
+  cv::Mat metres(raw.rows, raw.cols, CV_32FC1);
+  for (int r = 0; r < raw.rows; ++r) {
+    const uint16_t* in = raw.ptr<uint16_t>(r);
+    float* out = metres.ptr<float>(r);
+    for (int c = 0; c < raw.cols; ++c) out[c] = static_cast<float>(imager.RawToMetres(in[c]));
+  }
+  return metres;
 }
 
 }  // namespace ieslam

@@ -115,4 +115,8 @@ std::string DetectDatasetFormat(const std::string& directory);
 // timestamps, ...) or ConfigError (bad options) with a message naming the file and value.
 std::unique_ptr<Dataset> OpenDataset(const std::string& directory, const DatasetOptions& options);
 
+// A raw 16-bit range image (CV_16UC1) in metres as Dataset::Load returns it: CV_32FC1,
+// RangeImager::RawToMetres per pixel (0 = no measurement).
+cv::Mat RangeImageToMetres(const cv::Mat& raw, const RangeImager& imager);
+
 }  // namespace ieslam
