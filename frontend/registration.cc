@@ -99,16 +99,16 @@ RegistrationResult RegisterPointSets(const std::vector<Eigen::Vector3d>& points_
   T.matrix().topRows<3>() = ransac.model_coefficients_;
   double rms = 0.0;
   std::vector<int> inliers = InliersOf(T, points_a, points_b, options.inlier_threshold_m, &rms);
-  // Least-squares refit (Arun) on the inliers until the set is stable.
+  // Least-squares refit (Arun) on the inliers until the set is stable. A refit is kept even
+  // when a few inliers drop out past the threshold: it never raises the truncated cost
+  // sum_i min(e_i^2, threshold^2) over all correspondences (over the inliers its squared
+  // errors sum to no more than the previous model's, and any other correspondence costs at
+  // most threshold^2, as before). Keeping RANSAC's model instead would return a pose fitted
+  // to three noisy points.
   for (int round = 0; round < options.max_refinements && inliers.size() >= 3; ++round) {
-    Eigen::Isometry3d refit = Eigen::Isometry3d::Identity();
-    refit.matrix().topRows<3>() = opengv::point_cloud::threept_arun(adapter, inliers);
-    double refit_rms = 0.0;
+    T.matrix().topRows<3>() = opengv::point_cloud::threept_arun(adapter, inliers);
     std::vector<int> refit_inliers =
-        InliersOf(refit, points_a, points_b, options.inlier_threshold_m, &refit_rms);
-    if (refit_inliers.size() < inliers.size()) break;  // the refit made things worse
-    T = refit;
-    rms = refit_rms;
+        InliersOf(T, points_a, points_b, options.inlier_threshold_m, &rms);
     const bool stable = refit_inliers == inliers;
     inliers = std::move(refit_inliers);
     if (stable) break;
