@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <utility>
+#include <vector>
 
 #include <glog/logging.h>
 
@@ -58,6 +60,13 @@ LiftedPoint FeatureLifter::MakePoint(const Eigen::Vector2d& pixel, const Eigen::
   return point;
 }
 
+double FeatureLifter::EdgeAllowance(double range_m, double lateral_m) const {
+  // A surface slanted at up to ~60 deg changes range by lateral * tan(60) over a lateral
+  // extent; more than that plus the noise is a depth edge.
+  return options_.edge_sigma_multiplier * rig_.range.noise.Sigma(range_m) +
+         lateral_m * std::tan(60.0 * M_PI / 180.0);
+}
+
 LiftedPoint FeatureLifter::LiftRegistered(const Eigen::Vector2d& pixel, const cv::Mat& depth) const {
   const int x0 = static_cast<int>(std::lround(pixel.x()));
   const int y0 = static_cast<int>(std::lround(pixel.y()));
@@ -74,15 +83,34 @@ LiftedPoint FeatureLifter::LiftRegistered(const Eigen::Vector2d& pixel, const cv
   if (n < options_.min_valid_in_window) return {};
   std::sort(values, values + n);
   const double median = values[n / 2];
-  // The window spans 2r pixels: a surface slanted at ~60 deg changes depth by about
-  // 2r * z / f * tan(60) across it; more than that plus the noise is an edge.
-  const double lateral = 2.0 * r * median / rig_.range.camera.fx * std::tan(60.0 * M_PI / 180.0);
-  const double allowed = options_.edge_sigma_multiplier * rig_.range.noise.Sigma(median) + lateral;
-  if (values[n - 1] - values[0] > allowed) return {};
+  // The window spans 2r pixels.
+  if (values[n - 1] - values[0] > EdgeAllowance(median, 2.0 * r * median / rig_.range.camera.fx)) {
+    return {};
+  }
   const Eigen::Vector3d ray = rig_.colour.Unproject(pixel);
   const Eigen::Vector3d p = rig_.range.depth_kind == DepthKind::kZ ? Eigen::Vector3d(ray * median)
                                                                    : ray.normalized() * median;
   return MakePoint(pixel, ray.normalized(), p.norm());
+}
+
+bool FeatureLifter::SeenByRangeImager(const Eigen::Vector3d& p_c, const cv::Mat& depth) const {
+  const Eigen::Vector3d p_r = T_range_colour_ * p_c;
+  if (p_r.z() <= 0.0) return false;
+  const Eigen::Vector2d q = rig_.range.camera.Project(p_r);
+  const int x0 = static_cast<int>(std::lround(q.x())), y0 = static_cast<int>(std::lround(q.y()));
+  const int r = options_.window_radius;
+  if (x0 - r < 0 || y0 - r < 0 || x0 + r >= depth.cols || y0 + r >= depth.rows) return false;
+  const double value = rig_.range.depth_kind == DepthKind::kZ ? p_r.z() : p_r.norm();
+  // Window pixels are up to r + 1 pixels (diagonally) from the point's projection.
+  const double allowed =
+      EdgeAllowance(value, (r + 1) * std::sqrt(2.0) * value / rig_.range.camera.fx);
+  for (int y = y0 - r; y <= y0 + r; ++y) {
+    for (int x = x0 - r; x <= x0 + r; ++x) {
+      const float v = depth.at<float>(y, x);
+      if (!(v > 0.0f) || !std::isfinite(v) || std::abs(v - value) > allowed) return false;
+    }
+  }
+  return true;
 }
 
 LiftedPoint FeatureLifter::LiftThroughCloud(const Eigen::Vector2d& pixel,
@@ -102,6 +130,7 @@ LiftedPoint FeatureLifter::LiftThroughCloud(const Eigen::Vector2d& pixel,
   const int r = options_.window_radius;
   double best_distance = std::numeric_limits<double>::max(), best_along = 0.0;
   int last_x = std::numeric_limits<int>::min(), last_y = last_x;
+  std::vector<std::pair<double, double>> visited;  // (distance to the ray, position along it)
   for (int i = 0; i < steps; ++i) {
     const Eigen::Vector2d p = steps == 1 ? a : Eigen::Vector2d(a + (b - a) * (double(i) / (steps - 1)));
     const int cx = static_cast<int>(std::lround(p.x())), cy = static_cast<int>(std::lround(p.y()));
@@ -116,6 +145,7 @@ LiftedPoint FeatureLifter::LiftThroughCloud(const Eigen::Vector2d& pixel,
         const double along = q_c.dot(ray_c);
         if (along <= 0.0) continue;
         const double distance = (q_c - along * ray_c).norm();
+        visited.emplace_back(distance, along);
         if (distance < best_distance) {
           best_distance = distance;
           best_along = along;
@@ -128,6 +158,22 @@ LiftedPoint FeatureLifter::LiftThroughCloud(const Eigen::Vector2d& pixel,
   const double tolerance = options_.sigma_multiplier * rig_.range.noise.Sigma(best_along) +
                            options_.footprint_multiplier * footprint;
   if (best_distance > tolerance) return {};
+  // Near a depth edge that tolerance (mostly range noise, several range pixels wide) lets
+  // points of the wrong surface through: the nearest point may lie across a silhouette, or
+  // be the background seen past a surface that gave the imager no return (too oblique) or
+  // that its viewpoint does not see. Refuse unless (1) the points about as near the ray as
+  // the nearest (within one footprint more) agree on the position along it, and (2) the
+  // imager sees the lifted point: every pixel around its projection holds a range that
+  // agrees with it.
+  const double near_enough = best_distance + footprint;
+  double lo = best_along, hi = best_along;
+  for (const auto& [distance, along] : visited) {
+    if (distance > near_enough) continue;
+    lo = std::min(lo, along);
+    hi = std::max(hi, along);
+  }
+  if (hi - lo > EdgeAllowance(best_along, 2.0 * near_enough)) return {};
+  if (!SeenByRangeImager(best_along * ray_c, depth)) return {};
   return MakePoint(pixel, ray_c, best_along);
 }
 

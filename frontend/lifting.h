@@ -7,6 +7,10 @@
 // accepted only if its distance to the ray is within the range imager's precision at that
 // depth (noise plus the lateral footprint of one range pixel). The lifted point is the
 // cloud point projected onto the ray: bearing from the colour camera, range from the cloud.
+// Near depth edges that point may belong to another surface, so the keypoint is refused
+// when the cloud points about as near the ray disagree on the range along it, or when the
+// range imager does not see the lifted point (a range pixel around its projection that is
+// invalid or measures another range).
 //
 // Registered depth (depth pixel = colour pixel) is the special case handled by a robust
 // look-up: the median of a small window, rejected when the window straddles a depth edge.
@@ -28,8 +32,9 @@ struct LiftingOptions {
   // range pixel's lateral size at d).
   double sigma_multiplier = 3.0;
   double footprint_multiplier = 1.0;
-  // A window whose valid depths spread more than this many sigma_d plus its own lateral
-  // extent straddles a depth edge (registered look-up) and is rejected.
+  // Ranges of one surface differ by at most this many sigma_d plus what a slant of 60 deg
+  // makes of their lateral distance; more is a depth edge, and the keypoint is refused (the
+  // registered look-up's window, the cloud points near the ray).
   double edge_sigma_multiplier = 4.0;
   int min_valid_in_window = 5;  // of (2r+1)^2 for the registered look-up
 
@@ -53,6 +58,10 @@ class FeatureLifter {
                                 const cv::Mat& depth) const;
 
  private:
+  // How far apart two ranges near range_m, lateral_m apart, may be on one surface.
+  double EdgeAllowance(double range_m, double lateral_m) const;
+  // Whether every range pixel of the window around p_c's projection measures p_c's range.
+  bool SeenByRangeImager(const Eigen::Vector3d& p_c, const cv::Mat& depth) const;
   LiftedPoint LiftRegistered(const Eigen::Vector2d& pixel, const cv::Mat& depth) const;
   LiftedPoint LiftThroughCloud(const Eigen::Vector2d& pixel, const cv::Mat& depth) const;
   LiftedPoint MakePoint(const Eigen::Vector2d& pixel, const Eigen::Vector3d& ray_unit,

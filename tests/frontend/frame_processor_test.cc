@@ -45,7 +45,10 @@ TEST_F(FrameProcessorTest, RealPairsRegisterWithinTheTargets) {
     // The success criterion of issue 4 (the ground truth itself is good to about 1 cm).
     EXPECT_LT((T.translation() - T_gt.translation()).norm(), 0.05) << i << "->" << j;
     EXPECT_LT(RotationAngleBetween(T.linear(), T_gt.linear()) * 180 / M_PI, 2.0) << i << "->" << j;
-    EXPECT_GE(registration.result.inliers.size(), 50u);
+    // 46 at 400 -> 405 (62 matches): the lifter refuses keypoints near depth edges and
+    // holes since it lifted points there onto the wrong surface (over 50 pairs 5 apart the
+    // fewest inliers went from 48 to 40, the median translation error from 6.7 to 5.9 mm).
+    EXPECT_GE(registration.result.inliers.size(), 40u) << i << "->" << j;
   }
 }
 
