@@ -23,8 +23,9 @@ bool BlankOrComment(const std::string& s) {
 // characters (taken to be `...` or `---`) and scans for the next document; standing on a
 // `-` that does not start `---` it neither advances nor fails, so open() never returns.
 // A block map whose first key is in column 1 ends only at the end of the text, at a `...`
-// line or with a parse error; a root indented or on the `---` line ends at the first line
-// indented less (tests/core/yaml_text_test.cc holds one input per way in).
+// line or with a parse error; an indented root (one on the `---` line too) ends at the first
+// line indented less, a flow root at its bracket (tests/core/yaml_text_test.cc holds one
+// input per way in). Files are small, so the screen costs nothing worth counting.
 std::string YamlForOpenCv(const std::string& text, const std::string& source) {
   const size_t nul = text.find('\0');
   if (nul != std::string::npos) {
