@@ -1,13 +1,16 @@
 #include "apps/config_file.h"
 
 #include <cmath>
+#include <fstream>
 #include <functional>
 #include <map>
+#include <sstream>
 
 #include <opencv2/core.hpp>
 
 #include "core/error.h"
 #include "core/file_util.h"
+#include "core/yaml_text.h"
 
 namespace ieslam {
 namespace {
@@ -64,13 +67,10 @@ class Section {
 
 void ApplyConfigFile(const std::string& path, RunOptions* o) {
   RequireFile(path, "config file");
-  cv::FileStorage fs;
-  try {
-    fs.open(path, cv::FileStorage::READ | cv::FileStorage::FORMAT_YAML);
-  } catch (const cv::Exception& e) {
-    throw ConfigError(path + ": not a readable YAML file: " + e.what());
-  }
-  if (!fs.isOpened()) throw ConfigError(path + ": cannot be parsed as YAML");
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream text;
+  text << in.rdbuf();
+  const cv::FileStorage fs = OpenYamlMap(text.str(), path);
   using Reader = std::function<void(Section*)>;
   RgbdSourceOptions& s = o->source;
   const std::map<std::string, Reader> sections = {

@@ -12,6 +12,7 @@
 
 #include "core/error.h"
 #include "core/file_util.h"
+#include "core/yaml_text.h"
 
 namespace ieslam {
 namespace {
@@ -221,26 +222,7 @@ Rig RigFromYaml(const cv::FileStorage& fs, const std::string& source) {
 }  // namespace
 
 Rig ParseCalibration(const std::string& yaml, const std::string& source) {
-  // OpenCV's YAML parser throws std::length_error on some inputs with NUL bytes (found by
-  // tests/fuzz/calibration_fuzz.cc); no calibration file holds one, so they are refused first.
-  const size_t nul = yaml.find('\0');
-  if (nul != std::string::npos) {
-    throw ConfigError(source + ": not a text file (NUL byte at offset " + std::to_string(nul) + ")");
-  }
-  // OpenCV refuses YAML without its `%YAML:1.0` directive; hand-written files often lack it.
-  const std::string text = yaml.rfind("%YAML", 0) == 0 ? yaml : "%YAML:1.0\n" + yaml;
-  cv::FileStorage fs;
-  try {
-    fs.open(text, cv::FileStorage::READ | cv::FileStorage::MEMORY);
-  } catch (const cv::Exception& e) {
-    throw ConfigError(source + ": not valid calibration YAML: " + e.msg);
-  } catch (const std::exception& e) {
-    // Whatever else the parser throws is still a file we cannot read, not a program error.
-    throw ConfigError(source + ": not valid calibration YAML: " + e.what());
-  }
-  if (!fs.isOpened() || !fs.root().isMap()) {
-    throw ConfigError(source + ": not valid calibration YAML (expected a map of keys)");
-  }
+  const cv::FileStorage fs = OpenYamlMap(yaml, source);
   try {
     return RigFromYaml(fs, source);
   } catch (const cv::Exception& e) {

@@ -1,7 +1,8 @@
 // Calibration files: a Rig (colour camera, range imager, extrinsics) in YAML.
 //
 // The format (cv::FileStorage YAML; `#` comments allowed; the `%YAML:1.0` first line
-// OpenCV wants is optional in files we read). Every key is required unless noted:
+// OpenCV wants is optional in files we read; one document, top-level keys in column 1, see
+// core/yaml_text.h). Every key is required unless noted:
 //
 //   name: tum_fr1
 //   registered: 1            # 1: depth registered to colour (range intrinsics copied

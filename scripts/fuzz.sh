@@ -3,13 +3,16 @@
 # (default build-fuzz/) and runs each for at most FUZZ_RUNS executions (default 10^6) or
 # FUZZ_SECONDS seconds (default 1800), whichever comes first; prints each target's execution
 # count. Installs clang and libFuzzer (Debian: clang, libclang-rt-14-dev) when missing.
-# Exits non-zero when a target finds a crash, a sanitizer report or a broken invariant; the
-# input is then in BUILD_DIR/artifacts/. Usage: scripts/fuzz.sh [target ...]
+# Exits non-zero when a target finds a crash, a sanitizer report, a broken invariant or an
+# input that runs longer than FUZZ_TIMEOUT seconds (default 60: a unit takes milliseconds, and
+# with libFuzzer's default of 1200 s a hang stalls the run instead of failing it); the input is
+# then in BUILD_DIR/artifacts/. Usage: scripts/fuzz.sh [target ...]
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 build_dir=${BUILD_DIR:-$root/build-fuzz}
 runs=${FUZZ_RUNS:-1000000}
 seconds=${FUZZ_SECONDS:-1800}
+timeout=${FUZZ_TIMEOUT:-60}
 
 packages=(clang libclang-rt-14-dev)
 missing=()
@@ -49,7 +52,8 @@ for target in "${targets[@]}"; do
   echo "fuzz: $target (up to $runs runs or $seconds s)"
   if ASAN_OPTIONS=detect_leaks=1 "$build_dir/tests/fuzz/$target" "$corpus" \
        "$root/tests/fuzz/seeds/$target" "${dict[@]}" -runs="$runs" -max_total_time="$seconds" \
-       -max_len=4096 -print_final_stats=1 -artifact_prefix="$build_dir/artifacts/$target-" \
+       -max_len=4096 -timeout="$timeout" -print_final_stats=1 \
+       -artifact_prefix="$build_dir/artifacts/$target-" \
        >"$log" 2>&1; then
     result=ok
   else

@@ -74,8 +74,8 @@ class BadInputTest : public ::testing::Test {
   }
   static void TearDownTestSuite() { fs::remove_all(root_); }
 
-  // ctest runs every test in a process of its own, so only the tests that run the damaged
-  // sequence render images; the others need lists and small files only.
+  // Only the tests that run the damaged sequence render images, once per process (ctest
+  // runs this file as one process); the others need lists and small files only.
   static void RunDamagedSequence() {
     if (!damaged_report_.empty()) return;
     SyntheticDatasetOptions options;
@@ -220,8 +220,8 @@ std::vector<fs::path> BadInputTest::textureless_;
 
 // ------------------------------------------------- bad frames mid-sequence: counted skips
 
-// ctest runs each test in a process of its own: the damaged run (and the paths its
-// assertions name) must exist before a test body builds its expectations.
+// The damaged run (and the paths its assertions name) must exist before a test body builds
+// its expectations, also when a test runs alone (--gtest_filter).
 class DamagedSequenceTest : public BadInputTest {
  protected:
   void SetUp() override { RunDamagedSequence(); }

@@ -1,6 +1,7 @@
 #include "core/calibration.h"
 
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -328,6 +329,26 @@ TEST(CalibrationFuzzRegression, BinaryGarbageIsAConfigErrorNamingTheFile) {
               std::string::npos)
         << e.what();
   }
+}
+
+// Found by tests/fuzz/calibration_fuzz.cc (now one of its seeds): cv::FileStorage::open never
+// returned on this file (its root map is indented; see core/yaml_text.cc), so `ieslam run
+// --calib` hung. Run in a child process that SIGALRM ends, so a regression fails, not stalls.
+TEST(CalibrationFuzzRegressionDeathTest, IndentedRootIsAConfigErrorNotAHang) {
+  const std::string path =
+      std::string(IESLAM_SOURCE_DIR) + "/tests/fuzz/seeds/calibration_fuzz/regression-hang";
+  EXPECT_EXIT(
+      {
+        alarm(10);
+        try {
+          ReadCalibration(path);
+        } catch (const ConfigError& e) {
+          std::fprintf(stderr, "%s\n", e.what());
+          _exit(0);
+        }
+        _exit(1);
+      },
+      ::testing::ExitedWithCode(0), "regression-hang:2: expected a key in column 1");
 }
 
 }  // namespace
