@@ -289,18 +289,22 @@ Eigen::MatrixXd PoseSchurFactor::UpdatedWindow(const Plan& plan, const std::vect
   const std::vector<int>& order = plan.order;
   const int m = 6 * (k + 1 - lead);
   Eigen::MatrixXd T = Eigen::MatrixXd::Zero(m, m);
+  // Rows of T and the rows of a source they take, for a map T row -> source row (-1: none).
+  auto gather = [m](const std::vector<int>& source_row, std::vector<int>* rows,
+                    std::vector<int>* source_rows) {
+    for (int r = 0; r < m; ++r) {
+      if (source_row[r] < 0) continue;
+      rows->push_back(r);
+      source_rows->push_back(source_row[r]);
+    }
+  };
   std::vector<int> from(m);  // new window row -> old C row (-1: the new pose)
   for (int q = lead; q <= k; ++q) {
     const int old_q = order[q] == k ? -1 : position_[order[q]] - lead;
     for (int c = 0; c < 6; ++c) from[6 * (q - lead) + c] = old_q < 0 ? -1 : 6 * old_q + c;
   }
   std::vector<int> rows, old_rows;
-  for (int r = 0; r < m; ++r) {
-    if (from[r] >= 0) {
-      rows.push_back(r);
-      old_rows.push_back(from[r]);
-    }
-  }
+  gather(from, &rows, &old_rows);
   T(rows, rows) = C_(old_rows, old_rows);
   std::vector<int> d_rows(m);  // new window row -> row of D (-1: untouched)
   for (int q = lead; q <= k; ++q) {
@@ -309,12 +313,7 @@ Eigen::MatrixXd PoseSchurFactor::UpdatedWindow(const Plan& plan, const std::vect
     for (int c = 0; c < 6; ++c) d_rows[6 * (q - lead) + c] = l < 0 ? -1 : 6 * l + c;
   }
   std::vector<int> w_rows, dd_rows;
-  for (int r = 0; r < m; ++r) {
-    if (d_rows[r] >= 0) {
-      w_rows.push_back(r);
-      dd_rows.push_back(d_rows[r]);
-    }
-  }
+  gather(d_rows, &w_rows, &dd_rows);
   T(w_rows, w_rows) += D(dd_rows, dd_rows);
   return T;
 }

@@ -264,6 +264,21 @@ double RelativeDifference(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
   return (a - b).norm() / b.norm();
 }
 
+// The joint marginal covariance of a pose and a feature (blocks in that order) agrees with
+// the dense reference's to 1e-9.
+void ExpectJointMarginalMatchesDense(const InformationFilter& filter,
+                                     const testing::DenseReferenceFilter& dense, int frame,
+                                     int64_t feature) {
+  std::vector<int> indices;
+  for (int k = 0; k < 6; ++k) indices.push_back(dense.PoseIndex(frame) + k);
+  for (int k = 0; k < 3; ++k) indices.push_back(dense.FeatureIndex(feature) + k);
+  EXPECT_LT(RelativeDifference(
+                filter.MarginalCovariance({VariableRef::Pose(frame), VariableRef::Feature(feature)}),
+                dense.CovarianceOf(indices)),
+            1e-9)
+      << "pose " << frame << ", feature " << feature;
+}
+
 TEST_P(InformationFilterTest, AgreesWithTheDenseReferenceFilter) {
   for (const unsigned seed : {6u, 7u, 8u}) {
     std::mt19937 rng(seed);
@@ -287,15 +302,8 @@ TEST_P(InformationFilterTest, AgreesWithTheDenseReferenceFilter) {
     EXPECT_NEAR(sparse.LogDetInformation(), dense.LogDetInformation(),
                 1e-9 * std::abs(dense.LogDetInformation()));
     // A joint marginal of the last pose and a feature, blocks in the order asked.
-    const int last = sparse.frame_ids().back();
-    const int64_t feature = sparse.feature_ids()[sparse.feature_ids().size() / 2];
-    std::vector<int> indices;
-    for (int k = 0; k < 6; ++k) indices.push_back(dense.PoseIndex(last) + k);
-    for (int k = 0; k < 3; ++k) indices.push_back(dense.FeatureIndex(feature) + k);
-    EXPECT_LT(RelativeDifference(
-                  sparse.MarginalCovariance({VariableRef::Pose(last), VariableRef::Feature(feature)}),
-                  dense.CovarianceOf(indices)),
-              1e-9);
+    ExpectJointMarginalMatchesDense(sparse, dense, sparse.frame_ids().back(),
+                                    sparse.feature_ids()[sparse.feature_ids().size() / 2]);
   }
 }
 
@@ -491,15 +499,7 @@ TEST(InformationFilterLazyTest, AgreesWithRefactoringEveryUpdateThroughALoopClos
   EXPECT_NEAR(lazy.LogDetInformation(), dense.LogDetInformation(),
               1e-9 * std::abs(dense.LogDetInformation()));
   // The first pose of the loop and a feature of its start, jointly.
-  const int loop = scene.frame_ids[1];
-  const int64_t feature = lazy.feature_ids()[2];
-  std::vector<int> indices;
-  for (int k = 0; k < 6; ++k) indices.push_back(dense.PoseIndex(loop) + k);
-  for (int k = 0; k < 3; ++k) indices.push_back(dense.FeatureIndex(feature) + k);
-  EXPECT_LT(RelativeDifference(
-                lazy.MarginalCovariance({VariableRef::Pose(loop), VariableRef::Feature(feature)}),
-                dense.CovarianceOf(indices)),
-            1e-9);
+  ExpectJointMarginalMatchesDense(lazy, dense, scene.frame_ids[1], lazy.feature_ids()[2]);
 }
 
 TEST_P(InformationFilterTest, SameInputsGiveABitIdenticalState) {
