@@ -162,6 +162,8 @@ bool BundleAdjustmentOptions::Check(std::string* why) const {
     return false;
   };
   if (max_iterations < 1) return fail("max_iterations must be >= 1");
+  if (!(rejection_chi2 >= 0.0)) return fail("rejection_chi2 must be >= 0 (0: no rejection)");
+  if (max_rejection_rounds < 0) return fail("max_rejection_rounds must be >= 0");
   if (!(function_tolerance >= 0.0)) return fail("function_tolerance must be >= 0");
   if (!(gradient_tolerance >= 0.0)) return fail("gradient_tolerance must be >= 0");
   if (!(parameter_tolerance >= 0.0)) return fail("parameter_tolerance must be >= 0");
@@ -230,12 +232,17 @@ BundleAdjustmentResult SolveBundleAdjustment(const BundleAdjustmentProblem& prob
   ceres::Problem::Options problem_options;
   problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  problem_options.enable_fast_removal = true;  // rejected observations leave one by one
   ceres::EigenQuaternionManifold quaternion_manifold;
   ceres::Problem ceres_problem(problem_options);
 
-  std::set<int> observed_frames;
-  std::set<int64_t> observed_features;
-  for (const BundleAdjustmentObservation& obs : problem.observations) {
+  // Residual blocks per observation (index into problem.observations) and per parameter
+  // block, so that a rejected observation's blocks can leave the problem with it.
+  std::vector<ceres::ResidualBlockId> block_of(problem.observations.size(), nullptr);
+  std::map<int, int> frame_uses;
+  std::map<int64_t, int> feature_uses;
+  for (size_t k = 0; k < problem.observations.size(); ++k) {
+    const BundleAdjustmentObservation& obs = problem.observations[k];
     const FeatureObservation& o = obs.observation;
     if (!params.HasPose(obs.frame_id)) throw DataError(ObservationName(obs) + ": unknown frame");
     if (!params.HasFeature(o.feature_id)) {
@@ -253,15 +260,13 @@ BundleAdjustmentResult SolveBundleAdjustment(const BundleAdjustmentProblem& prob
                       std::to_string(p_c.z()) + " m) at the initial estimate");
     }
     double* q = params.q_w_c(obs.frame_id);
-    ceres_problem.AddResidualBlock(UvdResidual::Create(camera, o.z, W, options.min_depth_m),
-                                   loss.get(), q, params.t_w_c(obs.frame_id),
-                                   params.p_w(o.feature_id));
-    if (observed_frames.insert(obs.frame_id).second) {
-      ceres_problem.SetManifold(q, &quaternion_manifold);
-    }
-    observed_features.insert(o.feature_id);
+    block_of[k] = ceres_problem.AddResidualBlock(
+        UvdResidual::Create(camera, o.z, W, options.min_depth_m), loss.get(), q,
+        params.t_w_c(obs.frame_id), params.p_w(o.feature_id));
+    if (frame_uses[obs.frame_id]++ == 0) ceres_problem.SetManifold(q, &quaternion_manifold);
+    ++feature_uses[o.feature_id];
   }
-  if (observed_frames.count(anchor_id) > 0) {
+  if (frame_uses.count(anchor_id) > 0) {
     ceres_problem.SetParameterBlockConstant(params.q_w_c(anchor_id));
     ceres_problem.SetParameterBlockConstant(params.t_w_c(anchor_id));
   }
@@ -278,24 +283,67 @@ BundleAdjustmentResult SolveBundleAdjustment(const BundleAdjustmentProblem& prob
   solver_options.num_threads = options.num_threads;
   solver_options.logging_type = ceres::SILENT;
   solver_options.minimizer_progress_to_stdout = false;
-  if (options.linear_solver == BaLinearSolver::kSparseSchur && !observed_features.empty()) {
-    // Features first: eliminating them leaves the reduced camera system of the poses.
-    auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
-    for (int64_t feature_id : observed_features) {
-      ordering->AddElementToGroup(params.p_w(feature_id), 0);
-    }
-    for (int frame_id : observed_frames) {
-      ordering->AddElementToGroup(params.q_w_c(frame_id), 1);
-      ordering->AddElementToGroup(params.t_w_c(frame_id), 1);
-    }
-    solver_options.linear_solver_ordering = ordering;
-  }
 
+  // Solves from the current values; again after each round of rejections.
   ceres::Solver::Summary summary;
-  if (ceres_problem.NumResidualBlocks() > 0) ceres::Solve(solver_options, &ceres_problem, &summary);
-  result.initial_cost = summary.initial_cost;
+  bool first_solve = true;
+  const auto solve = [&]() {
+    if (ceres_problem.NumResidualBlocks() == 0) {
+      summary = ceres::Solver::Summary();
+      return;
+    }
+    if (options.linear_solver == BaLinearSolver::kSparseSchur) {
+      // Features first: eliminating them leaves the reduced camera system of the poses.
+      auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
+      for (const auto& [feature_id, uses] : feature_uses) {
+        ordering->AddElementToGroup(params.p_w(feature_id), 0);
+      }
+      for (const auto& [frame_id, uses] : frame_uses) {
+        ordering->AddElementToGroup(params.q_w_c(frame_id), 1);
+        ordering->AddElementToGroup(params.t_w_c(frame_id), 1);
+      }
+      solver_options.linear_solver_ordering = ordering;
+    }
+    ceres::Solve(solver_options, &ceres_problem, &summary);
+    if (first_solve) result.initial_cost = summary.initial_cost;
+    first_solve = false;
+    result.iterations += static_cast<int>(summary.iterations.size());
+  };
+  solve();
+  for (int round = 0; options.rejection_chi2 > 0.0 && round < options.max_rejection_rounds &&
+                      summary.IsSolutionUsable();
+       ++round) {
+    std::vector<size_t> rejected;
+    for (size_t k = 0; k < block_of.size(); ++k) {
+      if (block_of[k] == nullptr) continue;
+      double half_squared_norm = 0.0;
+      const bool evaluated = ceres_problem.EvaluateResidualBlock(
+          block_of[k], /*apply_loss_function=*/false, &half_squared_norm, nullptr, nullptr);
+      if (!evaluated || 2.0 * half_squared_norm > options.rejection_chi2) rejected.push_back(k);
+    }
+    if (rejected.empty()) break;
+    for (size_t k : rejected) {
+      const BundleAdjustmentObservation& obs = problem.observations[k];
+      ceres_problem.RemoveResidualBlock(block_of[k]);
+      block_of[k] = nullptr;
+      // A block no residual uses any more leaves too: Ceres' ordering and covariance would
+      // meet a parameter the problem does not determine.
+      if (--frame_uses[obs.frame_id] == 0) {
+        frame_uses.erase(obs.frame_id);
+        ceres_problem.RemoveParameterBlock(params.q_w_c(obs.frame_id));
+        ceres_problem.RemoveParameterBlock(params.t_w_c(obs.frame_id));
+      }
+      if (--feature_uses[obs.observation.feature_id] == 0) {
+        feature_uses.erase(obs.observation.feature_id);
+        ceres_problem.RemoveParameterBlock(params.p_w(obs.observation.feature_id));
+      }
+    }
+    solve();
+  }
+  for (size_t k = 0; k < block_of.size(); ++k) {
+    if (block_of[k] == nullptr) result.rejected.push_back(problem.observations[k]);
+  }
   result.final_cost = summary.final_cost;
-  result.iterations = static_cast<int>(summary.iterations.size());
   result.num_residuals = ceres_problem.NumResiduals();
   result.usable = ceres_problem.NumResidualBlocks() == 0 || summary.IsSolutionUsable();
   result.termination = std::string(ceres::TerminationTypeToString(summary.termination_type)) +
@@ -313,6 +361,8 @@ BundleAdjustmentResult SolveBundleAdjustment(const BundleAdjustmentProblem& prob
   }
   result.solve_time_s = SecondsSince(start);
 
+  std::set<int> observed_frames;
+  for (const auto& [frame_id, uses] : frame_uses) observed_frames.insert(frame_id);
   if (options.compute_covariances && result.usable && !observed_frames.empty()) {
     const auto covariance_start = std::chrono::steady_clock::now();
     ComputePoseCovariances(&ceres_problem, &params, anchor_id, observed_frames, options, &result);

@@ -189,6 +189,7 @@ TEST(BundleAdjustmentTest, NoisyProblemReachesTheChiSquareCostAndBeatsTheStart) 
   const BundleAdjustmentProblem problem = MakeTestProblem(scene, 0.03, 0.02, 0.05, true, &rng);
   BundleAdjustmentOptions options;
   options.compute_covariances = true;
+  options.rejection_chi2 = 0.0;  // every observation: the chi-square count below needs them all
   const BundleAdjustmentResult result = SolveBundleAdjustment(problem, scene.camera, options);
   ASSERT_TRUE(result.usable) << result.termination;
   ASSERT_EQ(result.num_residuals, 3 * static_cast<int>(problem.observations.size()));
@@ -229,7 +230,9 @@ TEST(BundleAdjustmentTest, HuberResistsGrossOutliers) {
     problem.observations[k].observation.z += Eigen::Vector3d(40.0, -30.0, 0.5);
   }
   BundleAdjustmentOptions least_squares;
+  least_squares.rejection_chi2 = 0.0;
   BundleAdjustmentOptions huber;
+  huber.rejection_chi2 = 0.0;
   huber.robust_loss = BaRobustLoss::kHuber;
   huber.huber_scale = 2.0;
   const PoseErrors plain = ErrorsToTruth(
@@ -238,6 +241,53 @@ TEST(BundleAdjustmentTest, HuberResistsGrossOutliers) {
   ASSERT_TRUE(robust.usable);
   const PoseErrors robust_errors = ErrorsToTruth(scene, robust.T_w_c, robust.p_w);
   EXPECT_LT(robust_errors.max_translation_m, 0.5 * plain.max_translation_m);
+}
+
+// Wrong associations as the front end's isotropic 3-D RANSAC threshold lets them through: the
+// right range, but a pixel position off by ~10 sigma (here ~10 cm across the ray at 6 m).
+// Plain least squares follows them; the default chi-square gate drops exactly those and
+// lands where the problem without them does.
+TEST(BundleAdjustmentTest, RejectionDropsWrongAssociations) {
+  std::mt19937 rng(9);
+  const TestScene scene = MakeTestScene(8, 80, &rng);
+  BundleAdjustmentProblem problem = MakeTestProblem(scene, 0.01, 0.01, 0.01, true, &rng);
+  BundleAdjustmentProblem without = problem;
+  without.observations.clear();
+  std::vector<size_t> wrong;
+  for (size_t k = 0; k < problem.observations.size(); ++k) {
+    if (k % 40 == 3 && problem.observations[k].frame_id != problem.AnchorFrameId()) {
+      problem.observations[k].observation.z += Eigen::Vector3d(8.0, -6.0, 0.0);
+      wrong.push_back(k);
+    } else {
+      without.observations.push_back(problem.observations[k]);
+    }
+  }
+  ASSERT_GE(wrong.size(), 5u);
+  BundleAdjustmentOptions keep_all;
+  keep_all.rejection_chi2 = 0.0;
+  const BundleAdjustmentResult reference = SolveBundleAdjustment(without, scene.camera, keep_all);
+  const BundleAdjustmentResult plain = SolveBundleAdjustment(problem, scene.camera, keep_all);
+  const BundleAdjustmentResult gated =
+      SolveBundleAdjustment(problem, scene.camera, BundleAdjustmentOptions());
+  ASSERT_TRUE(gated.usable) << gated.termination;
+  EXPECT_TRUE(plain.rejected.empty());
+  ASSERT_EQ(gated.rejected.size(), wrong.size());
+  for (size_t i = 0; i < wrong.size(); ++i) {
+    EXPECT_EQ(gated.rejected[i].frame_id, problem.observations[wrong[i]].frame_id);
+    EXPECT_EQ(gated.rejected[i].observation.feature_id,
+              problem.observations[wrong[i]].observation.feature_id);
+  }
+  EXPECT_EQ(gated.num_residuals, reference.num_residuals);
+  EXPECT_NEAR(gated.final_cost, reference.final_cost, 1e-6 * reference.final_cost);
+  const auto farthest = [&reference](const BundleAdjustmentResult& result) {
+    double max_m = 0.0;
+    for (const auto& [frame_id, T] : reference.T_w_c) {
+      max_m = std::max(max_m, (result.T_w_c.at(frame_id).translation() - T.translation()).norm());
+    }
+    return max_m;
+  };
+  EXPECT_GT(farthest(plain), 1e-3);  // 2.4 mm
+  EXPECT_LT(farthest(gated), 1e-6);
 }
 
 TEST(BundleAdjustmentTest, SingleThreadIsBitIdentical) {
@@ -269,6 +319,10 @@ TEST(BundleAdjustmentTest, BadInputAndOptionsAreReported) {
   options.robust_loss = BaRobustLoss::kHuber;
   options.huber_scale = 0.0;
   EXPECT_FALSE(options.Check(&why));
+  options = BundleAdjustmentOptions();
+  options.rejection_chi2 = -1.0;
+  EXPECT_FALSE(options.Check(&why));
+  EXPECT_NE(why.find("rejection_chi2"), std::string::npos);
 
   BundleAdjustmentProblem unknown = good;
   unknown.observations.back().observation.feature_id = 999999;
