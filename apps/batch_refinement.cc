@@ -22,6 +22,15 @@ double AteOfFiles(const std::string& gt_path, const std::string& est_path) {
   }
 }
 
+Json BaOptionsToJson(const BundleAdjustmentOptions& options) {
+  return Json::Object()
+      .Set("robust_loss", BaRobustLossName(options.robust_loss))
+      .Set("huber_scale", options.huber_scale)
+      .Set("rejection_chi2", options.rejection_chi2)
+      .Set("max_rejection_rounds", options.max_rejection_rounds)
+      .Set("max_iterations", options.max_iterations);
+}
+
 RefinementOutcome RefineToFiles(const StoredBaProblem& stored, const SlamEstimate& filter_estimate,
                                 const BundleAdjustmentOptions& options, const std::string& out,
                                 const std::string& gt_path) {
@@ -46,6 +55,10 @@ RefinementOutcome RefineToFiles(const StoredBaProblem& stored, const SlamEstimat
                                    .Set("final_cost", refined.final_cost)
                                    .Set("iterations", refined.iterations)
                                    .Set("residuals", refined.num_residuals)
+                                   .Set("rejected_observations",
+                                        static_cast<int>(refined.rejected.size()))
+                                   .Set("rejection_variance_factor",
+                                        refined.rejection_variance_factor)
                                    .Set("termination", refined.termination)
                                    .Set("seconds", refined.solve_time_s));
   return outcome;

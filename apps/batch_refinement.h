@@ -24,6 +24,9 @@ RefinementOutcome RefineToFiles(const StoredBaProblem& stored, const SlamEstimat
                                 const BundleAdjustmentOptions& options, const std::string& out,
                                 const std::string& gt_path);
 
+// The options a report records under options.ba (the loss, the rejection gate, iterations).
+Json BaOptionsToJson(const BundleAdjustmentOptions& options);
+
 // ATE RMSE of a written estimate against written ground truth, exactly as `ieslam evaluate`;
 // -1 with a warning on stderr when it cannot be computed (e.g. fewer than 3 matched poses:
 // a run that lost track early still writes its report).

@@ -73,11 +73,8 @@ int RefineCommand(const CommandArgs& args) {
       .Set("poses", static_cast<int>(stored.problem.T_w_c.size()))
       .Set("features", static_cast<int>(stored.problem.p_w.size()))
       .Set("observations", static_cast<int>(stored.problem.observations.size()));
-  report["options"]["ba"]
-      .Set("robust_loss", BaRobustLossName(ba.robust_loss))
-      .Set("huber_scale", ba.huber_scale)
-      .Set("max_iterations", ba.max_iterations)
-      .Set("threads", ba.num_threads);
+  report["options"].Set("ba", BaOptionsToJson(ba));
+  report["options"]["ba"].Set("threads", ba.num_threads);
   report["seconds"].Set("ba", refined.seconds);
   const std::string keyframes = JoinPath(run, "keyframes.tum");
   if (has_gt) {

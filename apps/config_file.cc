@@ -144,6 +144,8 @@ void ApplyConfigFile(const std::string& path, RunOptions* o) {
            throw ConfigError(path + ": ba.robust_loss must be none or huber, got '" + loss + "'");
          }
          x->Double("huber_scale", &o->ba.huber_scale);
+         x->Double("rejection_chi2", &o->ba.rejection_chi2);
+         x->Int("max_rejection_rounds", &o->ba.max_rejection_rounds);
          x->Int("max_iterations", &o->ba.max_iterations);
        }},
   };

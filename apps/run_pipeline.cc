@@ -112,10 +112,7 @@ Json RunOptions::ToJson() const {
       .Set("min_view_change_deg", selector.min_view_change_deg);
   json["filter"].Set("anchor_information", filter.anchor_information);
   json["map"].Set("voxel_size_m", map.voxel_size_m).Set("pixel_step", map.pixel_step);
-  json["ba"]
-      .Set("robust_loss", BaRobustLossName(ba.robust_loss))
-      .Set("huber_scale", ba.huber_scale)
-      .Set("max_iterations", ba.max_iterations);
+  json.Set("ba", BaOptionsToJson(ba));
   json.Set("threads", threads);
   return json;
 }

@@ -1,5 +1,6 @@
 #include "backend/bundle_adjustment.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -17,6 +18,9 @@
 
 namespace ieslam {
 namespace {
+
+// The median of the chi-square distribution with 3 degrees of freedom.
+constexpr double kChiSquare3Median = 2.365974;
 
 double SecondsSince(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -313,13 +317,27 @@ BundleAdjustmentResult SolveBundleAdjustment(const BundleAdjustmentProblem& prob
   for (int round = 0; options.rejection_chi2 > 0.0 && round < options.max_rejection_rounds &&
                       summary.IsSolutionUsable();
        ++round) {
-    std::vector<size_t> rejected;
+    std::vector<double> squared_norm(block_of.size(), 0.0);
+    std::vector<double> kept_norms;
     for (size_t k = 0; k < block_of.size(); ++k) {
       if (block_of[k] == nullptr) continue;
       double half_squared_norm = 0.0;
       const bool evaluated = ceres_problem.EvaluateResidualBlock(
           block_of[k], /*apply_loss_function=*/false, &half_squared_norm, nullptr, nullptr);
-      if (!evaluated || 2.0 * half_squared_norm > options.rejection_chi2) rejected.push_back(k);
+      squared_norm[k] =
+          evaluated ? 2.0 * half_squared_norm : std::numeric_limits<double>::infinity();
+      kept_norms.push_back(squared_norm[k]);
+    }
+    // Where Q understates the noise (real data: calibration, unmodelled distortion) the gate
+    // widens by the residuals' variance factor, median / chi-square median, robust to the
+    // outliers themselves; never narrows (a Q that overstates the noise keeps the gate).
+    const auto middle = kept_norms.begin() + kept_norms.size() / 2;
+    std::nth_element(kept_norms.begin(), middle, kept_norms.end());
+    result.rejection_variance_factor = std::max(1.0, *middle / kChiSquare3Median);
+    const double gate = options.rejection_chi2 * result.rejection_variance_factor;
+    std::vector<size_t> rejected;
+    for (size_t k = 0; k < block_of.size(); ++k) {
+      if (block_of[k] != nullptr && squared_norm[k] > gate) rejected.push_back(k);
     }
     if (rejected.empty()) break;
     for (size_t k : rejected) {

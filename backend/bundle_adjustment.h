@@ -47,11 +47,13 @@ struct BundleAdjustmentOptions {
   // Observations whose squared whitened residual |W (h - z)|^2 exceeds this at the optimum
   // are dropped and the problem solved again from there, until none is (at most
   // max_rejection_rounds times). 16.27 is chi-square with 3 degrees of freedom at 1 - 1e-3:
-  // a true observation fails it once in a thousand. The front end's 3-D RANSAC threshold is
-  // sized for the range noise and isotropic, so it lets through wrong associations off by
-  // several centimetres across the ray (tens of pixels): on the synthetic pair scene 0.8 %
-  // of the observations, carrying half of the cost at ground truth, and the least-squares
-  // optimum follows them. 0: keep every observation (the filter's exact problem).
+  // a true observation fails it once in a thousand. When the median squared residual says
+  // Q understates the noise, the gate widens by that factor (never narrows). The front
+  // end's 3-D RANSAC threshold is sized for the range noise and isotropic, so it lets
+  // through wrong associations off by several centimetres across the ray (tens of pixels):
+  // on the synthetic pair scene 0.8 % of the observations, carrying half of the cost at
+  // ground truth, and the least-squares optimum follows them. 0: keep every observation
+  // (the filter's exact problem).
   double rejection_chi2 = 16.27;
   int max_rejection_rounds = 5;
   // Features are eliminated first (the Schur complement leaves the small pose system);
@@ -108,15 +110,17 @@ struct BundleAdjustmentResult {
   // (e.g. a rank-deficient Jacobian: a pose or feature the observations do not determine).
   std::string covariance_error;
 
-  // Observations dropped by the rejection_chi2 gate, in the order of problem.observations.
+  // Observations dropped by the rejection_chi2 gate, in the order of problem.observations,
+  // and the gate's last variance factor (>= 1: the gate was rejection_chi2 times this).
   std::vector<BundleAdjustmentObservation> rejected;
+  double rejection_variance_factor = 1.0;
 
   double initial_cost = 0.0;  // Ceres' 1/2 sum |r|^2 (after the robust loss), first solve
-  double final_cost = 0.0;  // of the last solve, over the observations kept
-  int iterations = 0;       // summed over the solves
-  int num_residuals = 0;    // scalar residuals, 3 per observation kept
-  bool usable = false;      // Ceres: CONVERGENCE or NO_CONVERGENCE with a finite cost
-  std::string termination;  // Ceres' termination type and message
+  double final_cost = 0.0;    // of the last solve, over the observations kept
+  int iterations = 0;         // summed over the solves
+  int num_residuals = 0;      // scalar residuals, 3 per observation kept
+  bool usable = false;        // Ceres: CONVERGENCE or NO_CONVERGENCE with a finite cost
+  std::string termination;    // Ceres' termination type and message
   double solve_time_s = 0.0;
   double covariance_time_s = 0.0;
 };

@@ -1,5 +1,6 @@
 #include "backend/bundle_adjustment.h"
 
+#include <algorithm>
 #include <cmath>
 #include <memory>
 #include <random>
@@ -245,38 +246,54 @@ TEST(BundleAdjustmentTest, HuberResistsGrossOutliers) {
 
 // Wrong associations as the front end's isotropic 3-D RANSAC threshold lets them through: the
 // right range, but a pixel position off by ~10 sigma (here ~10 cm across the ray at 6 m).
-// Plain least squares follows them; the default chi-square gate drops exactly those and
-// lands where the problem without them does.
-TEST(BundleAdjustmentTest, RejectionDropsWrongAssociations) {
+struct WrongAssociations {
+  TestScene scene;
+  BundleAdjustmentProblem problem;  // with the wrong observations
+  BundleAdjustmentProblem without;  // the same without them
+  std::vector<size_t> wrong;        // their indices in problem.observations
+};
+
+WrongAssociations MakeWrongAssociations(double q_scale) {
   std::mt19937 rng(9);
-  const TestScene scene = MakeTestScene(8, 80, &rng);
-  BundleAdjustmentProblem problem = MakeTestProblem(scene, 0.01, 0.01, 0.01, true, &rng);
-  BundleAdjustmentProblem without = problem;
-  without.observations.clear();
-  std::vector<size_t> wrong;
-  for (size_t k = 0; k < problem.observations.size(); ++k) {
-    if (k % 40 == 3 && problem.observations[k].frame_id != problem.AnchorFrameId()) {
-      problem.observations[k].observation.z += Eigen::Vector3d(8.0, -6.0, 0.0);
-      wrong.push_back(k);
+  WrongAssociations w;
+  w.scene = MakeTestScene(8, 80, &rng);
+  w.problem = MakeTestProblem(w.scene, 0.01, 0.01, 0.01, true, &rng);
+  w.without = w.problem;
+  w.without.observations.clear();
+  for (size_t k = 0; k < w.problem.observations.size(); ++k) {
+    FeatureObservation& o = w.problem.observations[k].observation;
+    o.Q *= q_scale;
+    if (k % 40 == 3 && w.problem.observations[k].frame_id != w.problem.AnchorFrameId()) {
+      o.z += Eigen::Vector3d(8.0, -6.0, 0.0);
+      w.wrong.push_back(k);
     } else {
-      without.observations.push_back(problem.observations[k]);
+      w.without.observations.push_back(w.problem.observations[k]);
     }
   }
-  ASSERT_GE(wrong.size(), 5u);
+  return w;
+}
+
+// The default gate drops exactly the wrong observations and lands where the problem without
+// them does; plain least squares follows them.
+TEST(BundleAdjustmentTest, RejectionDropsWrongAssociations) {
+  const WrongAssociations w = MakeWrongAssociations(1.0);
+  ASSERT_GE(w.wrong.size(), 5u);
+  const PinholeCamera& camera = w.scene.camera;
   BundleAdjustmentOptions keep_all;
   keep_all.rejection_chi2 = 0.0;
-  const BundleAdjustmentResult reference = SolveBundleAdjustment(without, scene.camera, keep_all);
-  const BundleAdjustmentResult plain = SolveBundleAdjustment(problem, scene.camera, keep_all);
+  const BundleAdjustmentResult reference = SolveBundleAdjustment(w.without, camera, keep_all);
+  const BundleAdjustmentResult plain = SolveBundleAdjustment(w.problem, camera, keep_all);
   const BundleAdjustmentResult gated =
-      SolveBundleAdjustment(problem, scene.camera, BundleAdjustmentOptions());
+      SolveBundleAdjustment(w.problem, camera, BundleAdjustmentOptions());
   ASSERT_TRUE(gated.usable) << gated.termination;
   EXPECT_TRUE(plain.rejected.empty());
-  ASSERT_EQ(gated.rejected.size(), wrong.size());
-  for (size_t i = 0; i < wrong.size(); ++i) {
-    EXPECT_EQ(gated.rejected[i].frame_id, problem.observations[wrong[i]].frame_id);
-    EXPECT_EQ(gated.rejected[i].observation.feature_id,
-              problem.observations[wrong[i]].observation.feature_id);
+  ASSERT_EQ(gated.rejected.size(), w.wrong.size());
+  for (size_t i = 0; i < w.wrong.size(); ++i) {
+    const BundleAdjustmentObservation& expected = w.problem.observations[w.wrong[i]];
+    EXPECT_EQ(gated.rejected[i].frame_id, expected.frame_id);
+    EXPECT_EQ(gated.rejected[i].observation.feature_id, expected.observation.feature_id);
   }
+  EXPECT_EQ(gated.rejection_variance_factor, 1.0);
   EXPECT_EQ(gated.num_residuals, reference.num_residuals);
   EXPECT_NEAR(gated.final_cost, reference.final_cost, 1e-6 * reference.final_cost);
   const auto farthest = [&reference](const BundleAdjustmentResult& result) {
@@ -288,6 +305,28 @@ TEST(BundleAdjustmentTest, RejectionDropsWrongAssociations) {
   };
   EXPECT_GT(farthest(plain), 1e-3);  // 2.4 mm
   EXPECT_LT(farthest(gated), 1e-6);
+}
+
+// With a Q that understates the noise (sigma halved) a fixed gate would drop a quarter of
+// the true observations (chi-square 3 beyond 16.27 / 4); it widens by the residuals' variance
+// factor instead, and still drops every wrong one.
+TEST(BundleAdjustmentTest, RejectionGateWidensWhenQUnderstatesTheNoise) {
+  const WrongAssociations w = MakeWrongAssociations(0.25);
+  const BundleAdjustmentResult gated =
+      SolveBundleAdjustment(w.problem, w.scene.camera, BundleAdjustmentOptions());
+  ASSERT_TRUE(gated.usable) << gated.termination;
+  EXPECT_GT(gated.rejection_variance_factor, 2.5);  // 4 less the fit's degrees of freedom
+  EXPECT_LT(gated.rejection_variance_factor, 5.0);
+  EXPECT_LE(gated.rejected.size(), w.wrong.size() + 2);  // true ones: 1e-3 of ~500
+  for (size_t k : w.wrong) {
+    const BundleAdjustmentObservation& expected = w.problem.observations[k];
+    EXPECT_TRUE(std::any_of(gated.rejected.begin(), gated.rejected.end(),
+                            [&](const auto& r) {
+                              return r.frame_id == expected.frame_id &&
+                                     r.observation.feature_id == expected.observation.feature_id;
+                            }))
+        << "frame " << expected.frame_id << ", feature " << expected.observation.feature_id;
+  }
 }
 
 TEST(BundleAdjustmentTest, SingleThreadIsBitIdentical) {
