@@ -328,6 +328,7 @@ BundleAdjustmentResult SolveBundleAdjustment(const BundleAdjustmentProblem& prob
           evaluated ? 2.0 * half_squared_norm : std::numeric_limits<double>::infinity();
       kept_norms.push_back(squared_norm[k]);
     }
+    if (kept_norms.empty()) break;
     // Where Q understates the noise (real data: calibration, unmodelled distortion) the gate
     // widens by the residuals' variance factor, median / chi-square median, robust to the
     // outliers themselves; never narrows (a Q that overstates the noise keeps the gate).
