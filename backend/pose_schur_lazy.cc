@@ -94,14 +94,17 @@ void PoseSchurFactor::Sync() {
       MBt[j] = M * feature.couplings[j].transpose();
       FBt[j] = feature.F_inv * feature.couplings[j].transpose();
     }
+    // The lower blocks, each mirrored (a feature's poses are distinct).
     for (int i = 0; i < p; ++i) {
-      for (int j = 0; j < p; ++j) {
-        auto block = S_.block<6, 6>(6 * feature.poses[i], 6 * feature.poses[j]);
+      for (int j = 0; j <= i; ++j) {
+        Eigen::Matrix<double, 6, 6> block;
         if (i < a && j < a) {
-          block.noalias() += feature.couplings[i] * MBt[j];
+          block.noalias() = feature.couplings[i] * MBt[j];
         } else {
-          block.noalias() -= feature.couplings[i] * FBt[j];
+          block.noalias() = -feature.couplings[i] * FBt[j];
         }
+        S_.block<6, 6>(6 * feature.poses[i], 6 * feature.poses[j]) += block;
+        if (j < i) S_.block<6, 6>(6 * feature.poses[j], 6 * feature.poses[i]) += block.transpose();
       }
     }
     feature.F_synced = feature.F;
