@@ -60,8 +60,9 @@ struct InformationFilterOptions {
   // cg_tolerance of its standard deviation of the exact solve (the tests: 1e-9 absolute).
   // Updates that follow a query stay exact (the selector queries once per added frame).
   // Measured (CPU time, noisy shared machine): the paper's all-frames simulation 3.8 s a run
-  // instead of 11.5 s; an update at state 7,389 (300 poses) 41 ms on average over 24
-  // instead of ~195 ms.
+  // instead of 11.5 s; an update at state 7,389 (300 poses) 34-41 ms on average over 24
+  // (the preconditioner in float; 53-55 ms in double, measured side by side) instead of
+  // ~195 ms.
   bool iterative_recovery = true;
   double cg_tolerance = 1e-10;
   int cg_max_iterations = 60;

@@ -20,12 +20,48 @@ Eigen::Matrix3d SymmetricInverse(const Eigen::Matrix3d& F) {
 }
 
 // Lower Cholesky factor of T in place; false unless T is positive definite.
-bool FactorInPlace(Eigen::MatrixXd* T) {
+template <typename Matrix>
+bool FactorInPlace(Matrix* T) {
   if (T->rows() == 0) return true;
-  Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>> llt(*T);
+  Eigen::LLT<Eigen::Ref<Matrix>> llt(*T);
   if (llt.info() != Eigen::Success) return false;
   const auto diagonal = T->diagonal();
   return diagonal.allFinite() && diagonal.minCoeff() > 0.0;
+}
+
+// The first `columns` columns of L for the positions from `first` of `order`, rows in their
+// new places (`position`: pose -> old position; poses from `factored` on have none).
+template <typename Matrix>
+Matrix LeadingColumns(const Matrix& L, int first, int columns, const std::vector<int>& order,
+                      const std::vector<int>& position, int factored) {
+  const int rows = 6 * (static_cast<int>(order.size()) - first);
+  Matrix lead = Matrix::Zero(rows, columns);
+  if (columns == 0) return lead;
+  for (int q = first; q < static_cast<int>(order.size()); ++q) {
+    const int pose = order[q];
+    if (pose >= factored) continue;  // not factored: none before
+    lead.template middleRows<6>(6 * (q - first)) = L.block(6 * position[pose], 0, 6, columns);
+  }
+  return lead;
+}
+
+// S's block of the positions from `first` of `order` (pose per position), in that order:
+// the 6x6 blocks on and below the diagonal only (the rest is left unset). By blocks: an
+// indexed view of the scalar rows gathers coefficient by coefficient, ~3x slower.
+template <typename Scalar>
+Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic> GatherLower(const Eigen::MatrixXd& S,
+                                                                 const std::vector<int>& order,
+                                                                 int first) {
+  const int m = static_cast<int>(order.size()) - first;
+  Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic> T(6 * m, 6 * m);
+  for (int b = 0; b < m; ++b) {
+    const int col = 6 * order[first + b];
+    for (int a = b; a < m; ++a) {
+      T.template block<6, 6>(6 * a, 6 * b) =
+          S.block<6, 6>(6 * order[first + a], col).template cast<Scalar>();
+    }
+  }
+  return T;
 }
 
 }  // namespace
@@ -34,6 +70,7 @@ PoseSchurFactor::PoseSchurFactor(const PoseSchurOptions& options) : options_(opt
   CHECK_GE(options_.prefetch, 0);
   CHECK_GE(options_.evict_after, 1);
   CHECK_GE(options_.cg_flop_weight, 0.0);
+  CHECK_GE(options_.single_speedup, 0.0);
 }
 
 void PoseSchurFactor::Grow(int n) {
@@ -42,6 +79,7 @@ void PoseSchurFactor::Grow(int n) {
   const int capacity = n + 600;
   S_.conservativeResize(capacity, capacity);
   L_.conservativeResize(capacity, capacity);
+  if (L_single_.size() > 0) L_single_.conservativeResize(capacity, capacity);
 }
 
 bool PoseSchurFactor::AddPose(int pose_offset, const Eigen::Matrix<double, 6, 6>& I_pp,
@@ -62,7 +100,9 @@ bool PoseSchurFactor::AddPose(int pose_offset, const Eigen::Matrix<double, 6, 6>
   std::sort(touched.begin(), touched.end());
   touched.erase(std::unique(touched.begin(), touched.end()), touched.end());
   const int t = static_cast<int>(touched.size());
-  const bool lazy = update == SchurUpdate::kLazy && valid_ && t > 0 && LazyIsCheaper(touched);
+  const Choice choice = update == SchurUpdate::kLazy && valid_ && t > 0 ? ChooseUpdate(touched)
+                                                                        : Choice::kExact;
+  const bool lazy = choice == Choice::kLazy;
   // Anything else changes S itself: first the lazy updates' changes.
   if (!lazy) Sync();
 
@@ -175,7 +215,9 @@ bool PoseSchurFactor::AddPose(int pose_offset, const Eigen::Matrix<double, 6, 6>
     ok = PrepareLazyPreconditioner();  // false: S is not positive definite
   } else {
     const Plan plan = PlanWindow(DirtyPoses());
-    if (was_exact && plan.first == window_start_) {
+    if (choice == Choice::kRenew && RenewInSingle(plan.first, plan.order, plan.window_start)) {
+      ok = true;
+    } else if (was_exact && plan.first == window_start_) {
       const Eigen::MatrixXd T = UpdatedWindow(plan, local, D);
       ok = FactorFrom(plan.first, plan.order, plan.window_start, &T);
     } else {
@@ -320,26 +362,20 @@ Eigen::MatrixXd PoseSchurFactor::UpdatedWindow(const Plan& plan, const std::vect
 
 bool PoseSchurFactor::FactorFrom(int first, const std::vector<int>& order, int window_start,
                                  const Eigen::MatrixXd* trailing) {
+  // After a renewal in float only the leading columns it kept are exact: the order's prefix
+  // up to `first` is the old one, so starting earlier changes nothing else.
+  CHECK(trailing == nullptr || first <= double_columns_);
+  first = std::min(first, double_columns_);
   const int n = dim();
   const int f6 = 6 * first, w6 = 6 * window_start;
-  std::vector<int> rows;  // S rows of the positions from `first`, in the new order
-  for (int q = first; q < static_cast<int>(order.size()); ++q) {
-    for (int c = 0; c < 6; ++c) rows.push_back(6 * order[q] + c);
-  }
   // The unchanged leading columns of L, rows moved to their new positions.
-  Eigen::MatrixXd L_lead = Eigen::MatrixXd::Zero(n - f6, f6);
-  if (f6 > 0) {
-    for (int q = first; q < static_cast<int>(order.size()); ++q) {
-      const int pose = order[q];
-      if (pose >= static_cast<int>(order_.size())) continue;  // not factored: none before
-      L_lead.middleRows<6>(6 * (q - first)) = L_.block(6 * position_[pose], 0, 6, f6);
-    }
-  }
+  const Eigen::MatrixXd L_lead =
+      LeadingColumns(L_, first, f6, order, position_, static_cast<int>(order_.size()));
   Eigen::MatrixXd T;
   if (trailing != nullptr) {
     T = *trailing;
   } else {
-    T = S_(rows, rows);
+    T = GatherLower<double>(S_, order, first);
     if (f6 > 0 && T.rows() > 0) T.selfadjointView<Eigen::Lower>().rankUpdate(L_lead, -1.0);
   }
   // Factor the part before the window, then the window's Schur complement C.
@@ -363,17 +399,56 @@ bool PoseSchurFactor::FactorFrom(int first, const std::vector<int>& order, int w
   L_.block(f6, f6, a, a) = L11.triangularView<Eigen::Lower>();
   L_.block(w6, f6, m, a) = L21;
   L_.block(w6, w6, m, m) = L22.triangularView<Eigen::Lower>();
+  C_ = std::move(C);
+  double_columns_ = static_cast<int>(order.size());
+  single_rows_ = std::min(single_rows_, first);
+  Commit(order, window_start);
+  return true;
+}
+
+bool PoseSchurFactor::RenewInSingle(int first, const std::vector<int>& order, int window_start) {
+  SyncSingle();
+  const int n = dim(), f6 = 6 * first;
+  const int factored = static_cast<int>(order_.size());
+  const int kept = std::min(first, double_columns_);
+  const Eigen::MatrixXd lead = LeadingColumns(L_, first, 6 * kept, order, position_, factored);
+  const Eigen::MatrixXf lead_single =
+      LeadingColumns(L_single_, first, f6, order, position_, factored);
+  Eigen::MatrixXf T = GatherLower<float>(S_, order, first);
+  if (f6 > 0 && T.rows() > 0) T.selfadjointView<Eigen::Lower>().rankUpdate(lead_single, -1.0f);
+  if (!FactorInPlace(&T)) return false;
+
+  Grow(n);
+  if (L_single_.size() == 0) L_single_.resize(L_.rows(), L_.cols());
+  L_single_.block(f6, 0, n - f6, f6) = lead_single;
+  L_single_.block(f6, f6, n - f6, n - f6) = T.triangularView<Eigen::Lower>();
+  L_.block(f6, 0, n - f6, 6 * kept) = lead;
+  double_columns_ = kept;
+  single_rows_ = static_cast<int>(order.size());
+  Commit(order, window_start);
+  return true;
+}
+
+void PoseSchurFactor::SyncSingle() {
+  const int factored = static_cast<int>(order_.size());
+  if (single_rows_ >= factored) return;
+  CHECK_EQ(double_columns_, factored) << "neither factor is up to date";
+  const int n = 6 * factored, r6 = 6 * single_rows_;
+  if (L_single_.rows() < L_.rows()) L_single_.conservativeResize(L_.rows(), L_.cols());
+  L_single_.block(r6, 0, n - r6, n) = L_.block(r6, 0, n - r6, n).cast<float>();
+  single_rows_ = factored;
+}
+
+void PoseSchurFactor::Commit(const std::vector<int>& order, int window_start) {
   order_ = order;
   position_.assign(order.size(), -1);
   for (int q = 0; q < static_cast<int>(order.size()); ++q) position_[order[q]] = q;
   window_start_ = window_start;
-  C_ = std::move(C);
   valid_ = true;
   lazy_B_.resize(0, 0);
   exact_since_update_ = updates_;
   lazy_flops_ = 0.0;
   baseline_iterations_ = -1;
-  return true;
 }
 
 Eigen::VectorXd PoseSchurFactor::ReducedRhs(const Eigen::VectorXd& info_vector) const {
@@ -409,7 +484,7 @@ Eigen::VectorXd PoseSchurFactor::FullState(const Eigen::VectorXd& info_vector,
 Eigen::VectorXd PoseSchurFactor::Solve(const Eigen::VectorXd& info_vector) const {
   CHECK(exact()) << "no exact factor";
   Eigen::VectorXd x_p = ReducedRhs(info_vector);
-  ApplyPreconditioner(&x_p);
+  ApplyPreconditioner(/*single=*/false, &x_p);
   return FullState(info_vector, x_p);
 }
 

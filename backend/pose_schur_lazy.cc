@@ -15,20 +15,37 @@ namespace {
 
 double Square(double x) { return x * x; }
 
+// v = (L L^T)^-1 v for a lower triangular L.
+template <typename Matrix, typename Vector>
+void SubstituteInPlace(const Matrix& L, Vector* v) {
+  const auto lower = L.template triangularView<Eigen::Lower>();
+  lower.solveInPlace(*v);
+  lower.transpose().solveInPlace(*v);
+}
+
 }  // namespace
 
-bool PoseSchurFactor::LazyIsCheaper(const std::vector<int>& touched) const {
+double PoseSchurFactor::RefactorFlops(int first, bool from_window) const {
+  // The rank update forming the trailing block from S, and its factorisation.
+  const double m = 6.0 * (num_poses() + 1 - first);
+  return (from_window ? 0.0 : 0.5 * m * m * 6.0 * first) + m * m * m / 6.0;
+}
+
+PoseSchurFactor::Choice PoseSchurFactor::ChooseUpdate(const std::vector<int>& touched) const {
   const int k = num_poses();
   std::vector<int> dirty = DirtyPoses();
   for (const int pose : touched) {
     if (pose < static_cast<int>(order_.size())) dirty.push_back(pose);
   }
-  // Flops of the exact update: the rank update forming the trailing block from S (unless
-  // the window's C can be updated), and its factorisation.
+  // The exact update updates the window's C when it can, and refactors from the first
+  // column that is not exact in double; renewing in float refactors from the first change.
   const Plan plan = PlanWindow(dirty);
   const bool fast = exact() && plan.first == window_start_;
-  const double m = 6.0 * (k + 1 - plan.first);
-  const double exact_flops = (fast ? 0.0 : 0.5 * m * m * 6.0 * plan.first) + m * m * m / 6.0;
+  const double exact_flops = RefactorFlops(std::min(plan.first, double_columns_), fast);
+  const double renew_flops = options_.single_speedup > 0.0
+                                 ? RefactorFlops(plan.first, false) / options_.single_speedup
+                                 : exact_flops;
+  const double refactor_flops = std::min(exact_flops, renew_flops);
   // Of the lazy one: CG (as many iterations as last time) and the new poses' block C.
   const double lazy_n = 6.0 * (k + 1 - static_cast<int>(order_.size()));
   const double iteration = options_.cg_flop_weight * CgIterationFlops();
@@ -39,9 +56,10 @@ bool PoseSchurFactor::LazyIsCheaper(const std::vector<int>& touched) const {
   // have cost, beyond what they cost right after it (more iterations as the factor ages,
   // a growing block C), as much as refactoring: the ski-rental rule, within twice the
   // cost of the best schedule in hindsight.
-  if (exact_flops <= expected * iteration + prepare) return false;
+  if (exact_flops <= expected * iteration + prepare) return Choice::kExact;
   const int excess = baseline_iterations_ < 0 ? 0 : std::max(expected - baseline_iterations_, 0);
-  return lazy_flops_ + excess * iteration + prepare < exact_flops;
+  if (lazy_flops_ + excess * iteration + prepare < refactor_flops) return Choice::kLazy;
+  return renew_flops < exact_flops ? Choice::kRenew : Choice::kExact;
 }
 
 double PoseSchurFactor::LazyPreparationFlops(double lazy_n) const {
@@ -76,14 +94,17 @@ void PoseSchurFactor::Sync() {
       MBt[j] = M * feature.couplings[j].transpose();
       FBt[j] = feature.F_inv * feature.couplings[j].transpose();
     }
+    // The lower blocks, each mirrored (a feature's poses are distinct).
     for (int i = 0; i < p; ++i) {
-      for (int j = 0; j < p; ++j) {
-        auto block = S_.block<6, 6>(6 * feature.poses[i], 6 * feature.poses[j]);
+      for (int j = 0; j <= i; ++j) {
+        Eigen::Matrix<double, 6, 6> block;
         if (i < a && j < a) {
-          block.noalias() += feature.couplings[i] * MBt[j];
+          block.noalias() = feature.couplings[i] * MBt[j];
         } else {
-          block.noalias() -= feature.couplings[i] * FBt[j];
+          block.noalias() = -feature.couplings[i] * FBt[j];
         }
+        S_.block<6, 6>(6 * feature.poses[i], 6 * feature.poses[j]) += block;
+        if (j < i) S_.block<6, 6>(6 * feature.poses[j], 6 * feature.poses[i]) += block.transpose();
       }
     }
     feature.F_synced = feature.F;
@@ -131,7 +152,7 @@ bool PoseSchurFactor::PrepareLazyPreconditioner() {
   return true;
 }
 
-void PoseSchurFactor::ApplyPreconditioner(Eigen::VectorXd* z) const {
+void PoseSchurFactor::ApplyPreconditioner(bool single, Eigen::VectorXd* z) const {
   // Block elimination of M = [M_old + B C^-1 B^T, B; B^T, C], the lazy poses first.
   const int old_n = 6 * static_cast<int>(order_.size()), lazy_n = dim() - old_n;
   auto z_old = z->head(old_n);
@@ -141,10 +162,12 @@ void PoseSchurFactor::ApplyPreconditioner(Eigen::VectorXd* z) const {
     y = lazy_llt_.solve(z_lazy);
     z_old.noalias() -= lazy_B_ * y;
   }
-  if (old_n > 0) {
-    const auto L = L_.topLeftCorner(old_n, old_n).triangularView<Eigen::Lower>();
-    L.solveInPlace(z_old);
-    L.transpose().solveInPlace(z_old);
+  if (old_n > 0 && single) {
+    Eigen::VectorXf w = z_old.cast<float>();
+    SubstituteInPlace(L_single_.topLeftCorner(old_n, old_n), &w);
+    z_old = w.cast<double>();
+  } else if (old_n > 0) {
+    SubstituteInPlace(L_.topLeftCorner(old_n, old_n), &z_old);
   }
   if (lazy_n > 0) z_lazy = y - lazy_llt_.solve(lazy_B_.transpose() * z_old);
 }
@@ -181,7 +204,9 @@ bool PoseSchurFactor::SolveIteratively(const Eigen::VectorXd& info_vector,
     return true;
   }
   // Preconditioned conjugate gradients on S x_p = b. With M <= S, r^T M^-1 r >=
-  // r^T S^-1 r = e^T S e: the stopping test bounds the error's Mahalanobis norm.
+  // r^T S^-1 r = e^T S e: the stopping test bounds the error's Mahalanobis norm (M from
+  // the float copy of L: up to float's relative precision).
+  SyncSingle();
   const Eigen::VectorXd b = ReducedRhs(info_vector);
   Eigen::VectorXd x_p(dim());
   for (int pose = 0; pose < num_poses(); ++pose) {
@@ -191,7 +216,7 @@ bool PoseSchurFactor::SolveIteratively(const Eigen::VectorXd& info_vector,
   MultiplyS(x_p, &q);
   Eigen::VectorXd r = b - q;
   Eigen::VectorXd z = r;
-  ApplyPreconditioner(&z);
+  ApplyPreconditioner(/*single=*/true, &z);
   double rz = r.dot(z);
   Eigen::VectorXd p = z;
   const double tolerance = Square(options_.cg_tolerance);
@@ -204,16 +229,21 @@ bool PoseSchurFactor::SolveIteratively(const Eigen::VectorXd& info_vector,
     x_p += alpha * p;
     r -= alpha * q;
     z = r;
-    ApplyPreconditioner(&z);
+    ApplyPreconditioner(/*single=*/true, &z);
     const double rz_next = r.dot(z);
     p = z + (rz_next / rz) * p;
     rz = rz_next;
     ++iterations;
   }
+  // The baseline is the first lazy solve's: right after a renewal in float, with no lazy
+  // poses, CG needs fewer iterations than any lazy update will.
+  const bool after_lazy_update = static_cast<int>(order_.size()) < num_poses();
   last_cg_iterations_ = iterations;
-  if (baseline_iterations_ < 0) baseline_iterations_ = iterations;
-  lazy_flops_ +=
-      options_.cg_flop_weight * std::max(iterations - baseline_iterations_, 0) * CgIterationFlops();
+  if (after_lazy_update && baseline_iterations_ < 0) baseline_iterations_ = iterations;
+  if (baseline_iterations_ >= 0) {
+    lazy_flops_ += options_.cg_flop_weight * std::max(iterations - baseline_iterations_, 0) *
+                   CgIterationFlops();
+  }
   *x = FullState(info_vector, x_p);
   return rz <= tolerance;
 }

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <map>
 #include <random>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Cholesky>
@@ -124,11 +125,15 @@ TEST(PoseSchurFactorTest, DeferredAdditionsThenRefactorAgree) {
 // comes from conjugate gradients warm-started at the previous solution. Through the
 // trajectory's returns (every pose re-observes features of poses long left) each solve
 // agrees with the dense one, and the factor made exact agrees in full.
+// The refactorisations there renew the float preconditioner (single_speedup 1e6: always
+// when refactoring is due), or are exact in double (0).
 TEST(PoseSchurFactorTest, LazyUpdatesSolveAsTheDenseFactorThroughReturns) {
-  for (const int evict_after : {1, 3}) {
-    SCOPED_TRACE(::testing::Message() << "evict_after " << evict_after);
+  for (const auto& [evict_after, single_speedup] :
+       std::vector<std::pair<int, double>>{{1, 2.0}, {3, 2.0}, {3, 1e6}, {3, 0.0}}) {
+    SCOPED_TRACE(::testing::Message() << "evict_after " << evict_after << ", single_speedup "
+                                      << single_speedup);
     RandomProblem problem(40 + evict_after);
-    PoseSchurFactor factor({2, evict_after});
+    PoseSchurFactor factor({2, evict_after, 1e-10, 60, 5.0, single_speedup});
     std::uniform_real_distribution<double> uniform(-1.0, 1.0);
     Eigen::VectorXd previous;
     int lazy = 0, iterations = 0;
