@@ -1,5 +1,6 @@
 #include "selection/known_association_run.h"
 
+#include <chrono>
 #include <cmath>
 
 #include <glog/logging.h>
@@ -9,10 +10,23 @@
 #include "selection/known_association_source.h"
 
 namespace ieslam {
+namespace {
+
+// RMSE of the estimated positions after Horn's alignment onto the true ones (TUM's ATE).
+double AlignedRmse(const std::vector<Eigen::Vector3d>& p_est,
+                   const std::vector<Eigen::Vector3d>& p_true) {
+  const Eigen::Isometry3d T_true_est = AlignHorn(p_est, p_true);
+  double sum = 0.0;
+  for (size_t i = 0; i < p_est.size(); ++i) sum += (T_true_est * p_est[i] - p_true[i]).squaredNorm();
+  return std::sqrt(sum / static_cast<double>(p_est.size()));
+}
+
+}  // namespace
 
 KnownAssociationMetrics RunKnownAssociation(const KnownAssociationInput& input,
                                             const SelectorOptions& selector,
-                                            const InformationFilterOptions& filter_options) {
+                                            const InformationFilterOptions& filter_options,
+                                            const BundleAdjustmentOptions* refine) {
   const int n = static_cast<int>(input.observations.size());
   CHECK_EQ(static_cast<int>(input.T_w_c_true.size()), n);
   CHECK_GT(n, 0);
@@ -59,11 +73,18 @@ KnownAssociationMetrics RunKnownAssociation(const KnownAssociationInput& input,
   metrics.mean_nees = nees_sum / count;
   metrics.within_2sigma = static_cast<double>(inside) / (6.0 * count);
   metrics.final_pose_error_m = metrics.pose_errors.back().error.head<3>().norm();
-  if (count >= 3) {
-    const Eigen::Isometry3d T_true_est = AlignHorn(p_est, p_true);
-    double sum = 0.0;
-    for (int i = 0; i < count; ++i) sum += (T_true_est * p_est[i] - p_true[i]).squaredNorm();
-    metrics.ate_rmse_m = std::sqrt(sum / count);
+  if (count >= 3) metrics.ate_rmse_m = AlignedRmse(p_est, p_true);
+  if (refine != nullptr && count >= 3) {
+    const auto start = std::chrono::steady_clock::now();
+    const BundleAdjustmentResult ba = SolveBundleAdjustment(
+        MakeProblemFromFilter(filter, selection.observations), input.camera, *refine);
+    metrics.seconds_ba =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    std::vector<Eigen::Vector3d> p_refined;
+    for (const PoseErrorRecord& record : metrics.pose_errors) {
+      p_refined.push_back(ba.T_w_c.at(record.frame).translation());
+    }
+    metrics.refined_ate_rmse_m = AlignedRmse(p_refined, p_true);
   }
   return metrics;
 }

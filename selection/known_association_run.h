@@ -5,6 +5,7 @@
 
 #include <vector>
 
+#include "backend/bundle_adjustment.h"
 #include "backend/information_filter.h"
 #include "selection/keyframe_selector.h"
 
@@ -36,13 +37,19 @@ struct KnownAssociationMetrics {
   double ate_rmse_m = 0.0;          // selected poses, Horn-aligned as the TUM tools do
   double mean_nees = 0.0;           // over the selected poses (final estimates)
   double within_2sigma = 0.0;       // fraction of (pose, axis) errors inside +-2 sigma
+  // With a refinement: the bundle adjustment of the selected poses and their features,
+  // started from the filter's estimate (< 0: not refined).
+  double refined_ate_rmse_m = -1.0;
+  double seconds_ba = 0.0;
   std::vector<PoseErrorRecord> pose_errors;
   SelectionResult selection;
 };
 
-// The first pose is anchored at its true value, so estimates and truth share a frame.
+// The first pose is anchored at its true value, so estimates and truth share a frame. With
+// `refine`, the filter's estimate is then bundle-adjusted with those options.
 KnownAssociationMetrics RunKnownAssociation(const KnownAssociationInput& input,
                                             const SelectorOptions& selector,
-                                            const InformationFilterOptions& filter);
+                                            const InformationFilterOptions& filter,
+                                            const BundleAdjustmentOptions* refine = nullptr);
 
 }  // namespace ieslam

@@ -451,5 +451,21 @@ TEST_F(BadInputTest, OutOfRangeOptionsAreExit2NamingTheFlag) {
   EXPECT_FALSE(fs::exists(root_ / "o8" / "report.json"));
 }
 
+// simulate takes --config as run does (../shared/CLI.md), checked before any work.
+TEST_F(BadInputTest, SimulateConfigIsCheckedNamingFileAndKey) {
+  const fs::path config = root_ / "bad_ba.yaml";
+  WriteFile(config, "ba:\n  rejection_chi2: -1\n");
+  const fs::path out = root_ / "o9";
+  Result r = RunIeslam("simulate --output " + out.string() + " --config " + config.string());
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_TRUE(Contains(r.output, config.string() + ": bundle adjustment: rejection_chi2 must be >= 0"))
+      << r.output;
+  const std::string missing = (root_ / "no_such.yaml").string();
+  r = RunIeslam("simulate --output " + out.string() + " --config " + missing);
+  EXPECT_EQ(r.exit_code, 3) << r.output;
+  EXPECT_TRUE(Contains(r.output, "config file not found: " + missing)) << r.output;
+  EXPECT_FALSE(fs::exists(out / "report.json"));
+}
+
 }  // namespace
 }  // namespace ieslam
