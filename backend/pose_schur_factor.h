@@ -35,8 +35,9 @@
 // loop, where the window keeps it small); the factor is renewed (in float, below) when the
 // lazy solves since the last factorisation have cost, beyond what the first of them cost
 // (CG needs more iterations as M ages, and N grows), as much as renewing: a ski-rental
-// rule, on flop estimates so that the same inputs give the same bits. Measured on the paper's simulation at 300 poses: CG takes
-// 5-7 iterations right after a factorisation, ~10 thirty updates later.
+// rule, on flop estimates so that the same inputs give the same bits. Measured on the
+// paper's simulation at 300 poses: CG takes 5-7 iterations right after a factorisation,
+// ~10 thirty updates later.
 //
 // Single-precision preconditioner. CG's triangular solves stream L from memory, and the
 // refactoring that the ski-rental rule calls for only renews the preconditioner: both are
