@@ -24,6 +24,21 @@ FeatureObservation ObservationOf(const LiftedPoint& point, int64_t id) {
   return obs;
 }
 
+// SIFT gives a blob with more than one dominant gradient direction one keypoint per
+// direction: same position, scale and response, a descriptor each (ExtractFeatures keeps
+// them in consecutive rows). They are one image measurement, so they make one feature and
+// one observation; their descriptors are alternatives for matching. Returns, for each row,
+// the first row of its group.
+std::vector<int> SiblingGroups(const FrameFeatures& features) {
+  std::vector<int> first(features.size());
+  for (int row = 0; row < features.size(); ++row) {
+    const bool sibling = row > 0 && features.pixels[row] == features.pixels[row - 1] &&
+                         features.scales[row] == features.scales[row - 1];
+    first[row] = sibling ? first[row - 1] : row;
+  }
+  return first;
+}
+
 }  // namespace
 
 bool RgbdSourceOptions::Check(std::string* why) const {
@@ -183,7 +198,14 @@ CandidateFrame RgbdFrameSource::Build(int frame, const std::vector<int>& bases) 
     candidate.T_base_c = registered[0].second.result.T_a_b;
   }
 
-  // Observations of known features through the inlier matches, best registration first.
+  // Observations of known features through the inlier matches, best registration first;
+  // a keypoint's siblings take its id and add no observation of their own.
+  const std::vector<int> group = SiblingGroups(processed.features);
+  auto assign = [&group, &row_ids](int row, int64_t id) {
+    for (int r = group[row]; r < static_cast<int>(group.size()) && group[r] == group[row]; ++r) {
+      row_ids[r] = id;
+    }
+  };
   std::vector<int64_t> used;
   for (size_t r = 0; r < registered.size(); ++r) {
     const auto& [base, registration] = registered[r];
@@ -196,7 +218,7 @@ CandidateFrame RgbdFrameSource::Build(int frame, const std::vector<int>& bases) 
       const int64_t id = base_ids[match.train];
       if (id < 0 || row_ids[match.query] >= 0) continue;
       if (std::find(used.begin(), used.end(), id) != used.end()) continue;
-      row_ids[match.query] = id;
+      assign(match.query, id);
       used.push_back(id);
       candidate.observations.push_back(ObservationOf(processed.points[match.query], id));
     }
@@ -208,7 +230,7 @@ CandidateFrame RgbdFrameSource::Build(int frame, const std::vector<int>& bases) 
   for (int row = 0; row < rows && next - next_feature_id_ < options_.max_new_features_per_frame;
        ++row) {
     if (row_ids[row] >= 0) continue;
-    row_ids[row] = next;
+    assign(row, next);
     candidate.observations.push_back(ObservationOf(processed.points[row], next));
     ++next;
   }
