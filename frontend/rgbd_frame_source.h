@@ -6,7 +6,8 @@
 // Data association follows the paper: a frame's keypoint inherits the feature id of the base
 // frame keypoint it is an inlier match of; when the frame enters the filter, its unmatched
 // lifted keypoints become new features (the strongest first, at most
-// max_new_features_per_frame of them, which bounds the state's growth).
+// max_new_features_per_frame of them, which bounds the state's growth). SIFT's keypoints at
+// one position with different orientations are one feature, observed once.
 #pragma once
 
 #include <cstdint>
