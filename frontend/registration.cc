@@ -3,7 +3,9 @@
 #include <functional>
 #include <memory>
 
+#include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
+#include <ceres/ceres.h>
 #include <glog/logging.h>
 #include <opengv/point_cloud/PointCloudAdapter.hpp>
 #include <opengv/point_cloud/methods.hpp>
@@ -41,6 +43,99 @@ std::vector<int> InliersOf(const Eigen::Isometry3d& T_a_b, const std::vector<Eig
   return inliers;
 }
 
+// The whitened residual L^-1 (a - (q b + t)), with L L^T = S the correspondence's covariance:
+// its squared norm is r^T S^-1 r.
+struct WhitenedPointResidual {
+  WhitenedPointResidual(const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                        const Eigen::Matrix3d& whitening)
+      : a_(a), b_(b), whitening_(whitening) {}
+
+  template <typename T>
+  bool operator()(const T* rotation, const T* translation, T* residual) const {
+    const Eigen::Map<const Eigen::Quaternion<T>> q(rotation);
+    const Eigen::Map<const Eigen::Matrix<T, 3, 1>> t(translation);
+    const Eigen::Matrix<T, 3, 1> r = a_.cast<T>() - (q * b_.cast<T>() + t);
+    Eigen::Map<Eigen::Matrix<T, 3, 1>> whitened(residual);
+    whitened = whitening_.cast<T>() * r;
+    return true;
+  }
+
+  Eigen::Vector3d a_, b_;
+  Eigen::Matrix3d whitening_;
+};
+
+// The two points' noise, Sigma_a + R Sigma_b R^T, inverted as the whitening L^-1.
+class CorrespondenceNoise {
+ public:
+  CorrespondenceNoise(const std::vector<Eigen::Matrix3d>& covariances_a,
+                      const std::vector<Eigen::Matrix3d>& covariances_b)
+      : covariances_a_(covariances_a), covariances_b_(covariances_b) {}
+
+  // L^-1 for correspondence i under rotation R.
+  Eigen::Matrix3d Whitening(int i, const Eigen::Matrix3d& R) const {
+    const Eigen::Matrix3d S = covariances_a_[i] + R * covariances_b_[i] * R.transpose();
+    return Eigen::LLT<Eigen::Matrix3d>(S).matrixL().solve(Eigen::Matrix3d::Identity());
+  }
+
+  // The correspondences with r^T S^-1 r <= chi2, and the mean statistic over them.
+  std::vector<int> Inliers(const Eigen::Isometry3d& T_a_b, const std::vector<Eigen::Vector3d>& a,
+                           const std::vector<Eigen::Vector3d>& b, double chi2,
+                           double* mean_chi2) const {
+    std::vector<int> inliers;
+    double sum = 0.0;
+    for (size_t i = 0; i < a.size(); ++i) {
+      const double d2 =
+          (Whitening(static_cast<int>(i), T_a_b.linear()) * (a[i] - T_a_b * b[i])).squaredNorm();
+      if (d2 <= chi2) {
+        inliers.push_back(static_cast<int>(i));
+        sum += d2;
+      }
+    }
+    *mean_chi2 = inliers.empty() ? 0.0 : sum / inliers.size();
+    return inliers;
+  }
+
+  // The pose minimising sum r^T S^-1 r over `inliers`, S at the rotation of `start` (a
+  // Gauss-Newton problem on SO(3) x R^3 started from `start`).
+  Eigen::Isometry3d WeightedFit(const Eigen::Isometry3d& start,
+                                const std::vector<Eigen::Vector3d>& a,
+                                const std::vector<Eigen::Vector3d>& b,
+                                const std::vector<int>& inliers) const {
+    Eigen::Quaterniond q(start.linear());
+    Eigen::Vector3d t = start.translation();
+    ceres::Problem problem;
+    for (int i : inliers) {
+      problem.AddResidualBlock(
+          new ceres::AutoDiffCostFunction<WhitenedPointResidual, 3, 4, 3>(
+              new WhitenedPointResidual(a[i], b[i], Whitening(i, start.linear()))),
+          nullptr, q.coeffs().data(), t.data());
+    }
+    problem.SetManifold(q.coeffs().data(), new ceres::EigenQuaternionManifold);
+    ceres::Solver::Options options;
+    options.linear_solver_type = ceres::DENSE_QR;
+    options.max_num_iterations = 20;
+    options.num_threads = 1;
+    options.logging_type = ceres::SILENT;
+    ceres::Solver::Summary summary;
+    ceres::Solve(options, &problem, &summary);
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.linear() = q.normalized().toRotationMatrix();
+    T.translation() = t;
+    return T;
+  }
+
+ private:
+  const std::vector<Eigen::Matrix3d>& covariances_a_;
+  const std::vector<Eigen::Matrix3d>& covariances_b_;
+};
+
+double RmsOf(const Eigen::Isometry3d& T_a_b, const std::vector<Eigen::Vector3d>& a,
+             const std::vector<Eigen::Vector3d>& b, const std::vector<int>& selected) {
+  double sum = 0.0;
+  for (int i : selected) sum += (a[i] - T_a_b * b[i]).squaredNorm();
+  return selected.empty() ? 0.0 : std::sqrt(sum / selected.size());
+}
+
 // sqrt of the second-largest eigenvalue of the scatter of the selected points.
 double Spread(const std::vector<Eigen::Vector3d>& points, const std::vector<int>& selected) {
   Eigen::Vector3d mean = Eigen::Vector3d::Zero();
@@ -53,26 +148,11 @@ double Spread(const std::vector<Eigen::Vector3d>& points, const std::vector<int>
   return std::sqrt(std::max(0.0, eigenvalues[1]));  // ascending order
 }
 
-}  // namespace
 
-bool RegistrationOptions::Check(std::string* why) const {
-  auto fail = [why](const std::string& message) {
-    if (why != nullptr) *why = message;
-    return false;
-  };
-  if (!(inlier_threshold_m > 0.0)) return fail("registration.inlier_threshold_m must be > 0");
-  if (!(inlier_noise_sigmas >= 0.0)) return fail("registration.inlier_noise_sigmas must be >= 0");
-  if (max_iterations < 1) return fail("registration.max_iterations must be >= 1");
-  if (!(probability > 0.0 && probability < 1.0)) return fail("registration.probability must be in (0, 1)");
-  if (min_inliers < 3) return fail("registration.min_inliers must be >= 3");
-  if (!(min_spread_m >= 0.0)) return fail("registration.min_spread_m must be >= 0");
-  if (max_refinements < 0) return fail("registration.max_refinements must be >= 0");
-  return true;
-}
-
-RegistrationResult RegisterPointSets(const std::vector<Eigen::Vector3d>& points_a,
-                                     const std::vector<Eigen::Vector3d>& points_b,
-                                     const RegistrationOptions& options) {
+// RANSAC and the unweighted refits; then, with `noise`, the weighted ones.
+RegistrationResult Register(const std::vector<Eigen::Vector3d>& points_a,
+                            const std::vector<Eigen::Vector3d>& points_b,
+                            const CorrespondenceNoise* noise, const RegistrationOptions& options) {
   CHECK_EQ(points_a.size(), points_b.size());
   RegistrationResult result;
   const int n = static_cast<int>(points_a.size());
@@ -113,6 +193,20 @@ RegistrationResult RegisterPointSets(const std::vector<Eigen::Vector3d>& points_
     inliers = std::move(refit_inliers);
     if (stable) break;
   }
+  if (noise != nullptr) {
+    // From the unweighted fit: Mahalanobis inliers and the weighted fit to them, until the
+    // set is stable (a refit is kept as above).
+    inliers = noise->Inliers(T, points_a, points_b, options.inlier_chi2, &result.mean_chi2);
+    for (int round = 0; round < options.max_refinements && inliers.size() >= 3; ++round) {
+      T = noise->WeightedFit(T, points_a, points_b, inliers);
+      std::vector<int> refit_inliers =
+          noise->Inliers(T, points_a, points_b, options.inlier_chi2, &result.mean_chi2);
+      const bool stable = refit_inliers == inliers;
+      inliers = std::move(refit_inliers);
+      if (stable) break;
+    }
+    rms = RmsOf(T, points_a, points_b, inliers);
+  }
   result.T_a_b = T;
   result.inliers = inliers;
   result.inlier_ratio = static_cast<double>(inliers.size()) / n;
@@ -130,6 +224,41 @@ RegistrationResult RegisterPointSets(const std::vector<Eigen::Vector3d>& points_
   }
   result.success = true;
   return result;
+}
+
+}  // namespace
+
+bool RegistrationOptions::Check(std::string* why) const {
+  auto fail = [why](const std::string& message) {
+    if (why != nullptr) *why = message;
+    return false;
+  };
+  if (!(inlier_threshold_m > 0.0)) return fail("registration.inlier_threshold_m must be > 0");
+  if (!(inlier_noise_sigmas >= 0.0)) return fail("registration.inlier_noise_sigmas must be >= 0");
+  if (max_iterations < 1) return fail("registration.max_iterations must be >= 1");
+  if (!(probability > 0.0 && probability < 1.0)) return fail("registration.probability must be in (0, 1)");
+  if (min_inliers < 3) return fail("registration.min_inliers must be >= 3");
+  if (!(min_spread_m >= 0.0)) return fail("registration.min_spread_m must be >= 0");
+  if (max_refinements < 0) return fail("registration.max_refinements must be >= 0");
+  if (!(inlier_chi2 > 0.0)) return fail("registration.inlier_chi2 must be > 0");
+  return true;
+}
+
+RegistrationResult RegisterPointSets(const std::vector<Eigen::Vector3d>& points_a,
+                                     const std::vector<Eigen::Vector3d>& points_b,
+                                     const RegistrationOptions& options) {
+  return Register(points_a, points_b, nullptr, options);
+}
+
+RegistrationResult RegisterPointSets(const std::vector<Eigen::Vector3d>& points_a,
+                                     const std::vector<Eigen::Vector3d>& points_b,
+                                     const std::vector<Eigen::Matrix3d>& covariances_a,
+                                     const std::vector<Eigen::Matrix3d>& covariances_b,
+                                     const RegistrationOptions& options) {
+  CHECK_EQ(covariances_a.size(), points_a.size());
+  CHECK_EQ(covariances_b.size(), points_b.size());
+  const CorrespondenceNoise noise(covariances_a, covariances_b);
+  return Register(points_a, points_b, &noise, options);
 }
 
 }  // namespace ieslam
