@@ -95,8 +95,8 @@ class CorrespondenceNoise {
     return inliers;
   }
 
-  // The pose minimising sum r^T S^-1 r over `inliers`, S at the rotation of `start` (a
-  // Gauss-Newton problem on SO(3) x R^3 started from `start`).
+  // The pose minimising sum r^T S^-1 r over `inliers`, S at the rotation of `start`: Ceres'
+  // trust-region solver on unit quaternions x R^3, started from `start`.
   Eigen::Isometry3d WeightedFit(const Eigen::Isometry3d& start,
                                 const std::vector<Eigen::Vector3d>& a,
                                 const std::vector<Eigen::Vector3d>& b,
@@ -147,7 +147,6 @@ double Spread(const std::vector<Eigen::Vector3d>& points, const std::vector<int>
   const Eigen::Vector3d eigenvalues = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(scatter).eigenvalues();
   return std::sqrt(std::max(0.0, eigenvalues[1]));  // ascending order
 }
-
 
 // RANSAC and the unweighted refits; then, with `noise`, the weighted ones.
 RegistrationResult Register(const std::vector<Eigen::Vector3d>& points_a,
