@@ -102,6 +102,8 @@ void ApplyConfigFile(const std::string& path, RunOptions* o) {
          x->Double("probability", &s.frontend.registration.probability);
          x->Int("min_inliers", &s.frontend.registration.min_inliers);
          x->Double("min_spread_m", &s.frontend.registration.min_spread_m);
+         x->Double("inlier_chi2", &s.frontend.registration.inlier_chi2);
+         x->Bool("use_point_covariances", &s.frontend.registration.use_point_covariances);
        }},
       {"database",
        [&](Section* x) {

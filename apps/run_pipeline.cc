@@ -97,6 +97,8 @@ Json RunOptions::ToJson() const {
       .Set("inlier_threshold_m", r.inlier_threshold_m)
       .Set("max_iterations", r.max_iterations)
       .Set("min_inliers", r.min_inliers)
+      .Set("inlier_chi2", r.inlier_chi2)
+      .Set("use_point_covariances", r.use_point_covariances)
       .Set("seed", static_cast<int64_t>(r.seed));
   json["source"]
       .Set("max_base_candidates", source.max_base_candidates)

@@ -60,6 +60,14 @@ Eigen::Vector3d PredictObservation(const Vector6d& T_w_c, const Eigen::Vector3d&
   return z;
 }
 
+Eigen::Matrix3d BackProjectedCovariance(const Eigen::Vector3d& p_c, const Eigen::Matrix3d& Q,
+                                        const PinholeCamera& camera) {
+  Eigen::Matrix3d d_z_d_pc;
+  PredictObservation(Vector6d::Zero(), p_c, camera, nullptr, &d_z_d_pc);
+  const Eigen::Matrix3d d_pc_d_z = d_z_d_pc.inverse();
+  return d_pc_d_z * Q * d_pc_d_z.transpose();
+}
+
 Eigen::Vector3d ObservationToWorld(const Vector6d& T_w_c, const Eigen::Vector3d& z,
                                    const PinholeCamera& camera) {
   const Eigen::Vector3d ray((z.x() - camera.cx) / camera.fx, (z.y() - camera.cy) / camera.fy, 1.0);

@@ -43,6 +43,12 @@ Eigen::Vector3d PredictObservation(const Vector6d& T_w_c, const Eigen::Vector3d&
                                    const PinholeCamera& camera, Matrix36d* d_z_d_pose = nullptr,
                                    Eigen::Matrix3d* d_z_d_point = nullptr);
 
+// Covariance of the camera-frame point p_c that a measurement z = H(p_c) with covariance Q
+// back-projects to: J Q J^T, J = dp_c/dz the inverse of H's Jacobian at p_c (first order).
+// Along the ray it is sigma_d^2; across it the pixel noise scaled by the depth.
+Eigen::Matrix3d BackProjectedCovariance(const Eigen::Vector3d& p_c, const Eigen::Matrix3d& Q,
+                                        const PinholeCamera& camera);
+
 // Inverse of H for a known pose: the world point that produced z.
 Eigen::Vector3d ObservationToWorld(const Vector6d& T_w_c, const Eigen::Vector3d& z,
                                    const PinholeCamera& camera);

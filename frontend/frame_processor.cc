@@ -64,12 +64,15 @@ FrameRegistration RegisterFrames(const ProcessedFrame& a, const ProcessedFrame& 
 
   start = std::chrono::steady_clock::now();
   std::vector<Eigen::Vector3d> points_a, points_b;
+  std::vector<Eigen::Matrix3d> covariances_a, covariances_b;
   std::vector<double> sigmas;
   points_a.reserve(out.matches.size());
   points_b.reserve(out.matches.size());
   for (const DescriptorMatch& m : out.matches) {
     points_a.push_back(a.points[m.train].p_c);
     points_b.push_back(b.points[m.query].p_c);
+    covariances_a.push_back(a.points[m.train].p_c_covariance);
+    covariances_b.push_back(b.points[m.query].p_c_covariance);
     sigmas.push_back(std::sqrt(a.points[m.train].Q(2, 2) + b.points[m.query].Q(2, 2)));
   }
   RegistrationOptions options = registration;
@@ -78,7 +81,9 @@ FrameRegistration RegisterFrames(const ProcessedFrame& a, const ProcessedFrame& 
     options.inlier_threshold_m = std::max(options.inlier_threshold_m,
                                           options.inlier_noise_sigmas * sigmas[sigmas.size() / 2]);
   }
-  out.result = RegisterPointSets(points_a, points_b, options);
+  out.result = options.use_point_covariances
+                   ? RegisterPointSets(points_a, points_b, covariances_a, covariances_b, options)
+                   : RegisterPointSets(points_a, points_b, options);
   out.seconds_ransac = SecondsSince(start);
   return out;
 }

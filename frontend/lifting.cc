@@ -57,6 +57,7 @@ LiftedPoint FeatureLifter::MakePoint(const Eigen::Vector2d& pixel, const Eigen::
   point.z = Eigen::Vector3d(rig_.colour.fx * n.x() + rig_.colour.cx,
                             rig_.colour.fy * n.y() + rig_.colour.cy, along_ray);
   point.Q = ObservationCovariance(rig_.pixel_sigma, rig_.range.noise, along_ray);
+  point.p_c_covariance = BackProjectedCovariance(point.p_c, point.Q, rig_.colour);
   return point;
 }
 

@@ -46,6 +46,9 @@ struct LiftedPoint {
   Eigen::Vector3d p_c = Eigen::Vector3d::Zero();  // in the colour camera's frame
   Eigen::Vector3d z = Eigen::Vector3d::Zero();    // (u, v, d): undistorted pixel and range
   Eigen::Matrix3d Q = Eigen::Matrix3d::Identity();
+  // Q carried to p_c through the back-projection (BackProjectedCovariance): what a 3-D/3-D
+  // registration weighs the point by.
+  Eigen::Matrix3d p_c_covariance = Eigen::Matrix3d::Identity();
 };
 
 class FeatureLifter {

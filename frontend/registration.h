@@ -1,6 +1,7 @@
 // 3-D/3-D registration of matched lifted features (paper §IV, step 4): OpenGV's Arun
 // solver inside its RANSAC, with a seeded sampler, then least-squares refits on the inliers
-// until the inlier set stops changing.
+// until the inlier set stops changing. Given each point's covariance, the refits then go on
+// weighted by it: Mahalanobis inliers and the covariance-weighted least-squares pose.
 #pragma once
 
 #include <cstdint>
@@ -29,6 +30,17 @@ struct RegistrationOptions {
   double min_spread_m = 0.03;
   int max_refinements = 10;
   uint32_t seed = 42;
+  // With point covariances, correspondence i is an inlier when r^T S^-1 r <= inlier_chi2,
+  // r = a_i - T b_i, S = Sigma_a + R Sigma_b R^T (the two points' independent noise). That
+  // statistic is chi-square with 3 degrees of freedom for a true match; 16.27 is its 0.999
+  // quantile: with a few hundred matches per pair it drops ~0.1% of the true ones (one pair
+  // in several loses one), where 0.99 (11.34) would drop several in every pair, while a
+  // wrong match a few sigmas off sideways (the isotropic gate's blind spot: along the
+  // range, sigma_d is several times the lateral sigma) scores far above it.
+  double inlier_chi2 = 16.27;
+  // Whether RegisterFrames hands the lifted points' covariances to the registration (off:
+  // the isotropic gate and the unweighted fit alone).
+  bool use_point_covariances = true;
 
   bool Check(std::string* why) const;
 };
@@ -40,6 +52,7 @@ struct RegistrationResult {
   std::vector<int> inliers;                            // indices into the correspondences
   double inlier_ratio = 0.0;
   double rms_m = 0.0;                                  // residual RMS over the inliers
+  double mean_chi2 = 0.0;  // mean r^T S^-1 r over the inliers (with covariances; ~3 if consistent)
   int ransac_iterations = 0;
 };
 
@@ -47,6 +60,15 @@ struct RegistrationResult {
 // Deterministic for a given options.seed.
 RegistrationResult RegisterPointSets(const std::vector<Eigen::Vector3d>& points_a,
                                      const std::vector<Eigen::Vector3d>& points_b,
+                                     const RegistrationOptions& options);
+
+// The same, then with each point's covariance (in its own frame): from the unweighted
+// result, inliers by the Mahalanobis test and the pose minimising sum r^T S^-1 r over them
+// (S held at the previous rotation in each refit), until the inlier set stops changing.
+RegistrationResult RegisterPointSets(const std::vector<Eigen::Vector3d>& points_a,
+                                     const std::vector<Eigen::Vector3d>& points_b,
+                                     const std::vector<Eigen::Matrix3d>& covariances_a,
+                                     const std::vector<Eigen::Matrix3d>& covariances_b,
                                      const RegistrationOptions& options);
 
 }  // namespace ieslam

@@ -105,6 +105,42 @@ TEST(ObservationTest, ObservationToWorldInvertsPrediction) {
   }
 }
 
+// J Q J^T with J the finite-difference Jacobian of the back-projection ObservationToWorld;
+// and its two readings: sigma_d^2 along the ray, (pixel sigma * depth / f)^2 across it.
+TEST(ObservationTest, BackProjectedCovarianceMatchesTheBackProjectionsJacobian) {
+  std::mt19937 rng(11);
+  const PinholeCamera camera = TestCamera();
+  for (int i = 0; i < 50; ++i) {
+    Vector6d T_w_c;
+    Eigen::Vector3d p_c;
+    RandomState(&rng, 0.0, &T_w_c, &p_c);
+    p_c = WorldToCamera(T_w_c, p_c);
+    const Eigen::Vector3d z = PredictObservation(Vector6d::Zero(), p_c, camera);
+    Eigen::Matrix3d Q;
+    Q << 1.3, 0.2, 0.0, 0.2, 0.8, 0.0, 0.0, 0.0, 4e-4 * (1.0 + i);
+    Eigen::Matrix3d J;
+    const double h = 1e-6;
+    for (int k = 0; k < 3; ++k) {
+      Eigen::Vector3d plus = z, minus = z;
+      plus[k] += h;
+      minus[k] -= h;
+      J.col(k) = (ObservationToWorld(Vector6d::Zero(), plus, camera) -
+                  ObservationToWorld(Vector6d::Zero(), minus, camera)) /
+                 (2 * h);
+    }
+    const Eigen::Matrix3d expected = J * Q * J.transpose();
+    const Eigen::Matrix3d covariance = BackProjectedCovariance(p_c, Q, camera);
+    EXPECT_LT((covariance - expected).norm(), 1e-6 * expected.norm()) << "point " << i;
+  }
+  // On the optical axis: the range variance along it, the scaled pixel variance across.
+  const Eigen::Matrix3d Q = Eigen::Vector3d(1.0, 1.0, 0.02 * 0.02).asDiagonal();
+  const Eigen::Matrix3d on_axis = BackProjectedCovariance(Eigen::Vector3d(0, 0, 2.0), Q, camera);
+  EXPECT_NEAR(on_axis(2, 2), 0.02 * 0.02, 1e-15);
+  EXPECT_NEAR(on_axis(0, 0), std::pow(2.0 / camera.fx, 2), 1e-15);
+  EXPECT_NEAR(on_axis(1, 1), std::pow(2.0 / camera.fy, 2), 1e-15);
+  EXPECT_NEAR(on_axis(0, 1), 0.0, 1e-15);
+}
+
 TEST(ObservationTest, RotationDerivativesMatchFiniteDifferences) {
   std::mt19937 rng(3);
   std::uniform_real_distribution<double> angle(-M_PI, M_PI);
