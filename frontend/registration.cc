@@ -5,6 +5,9 @@
 
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
+#include <ceres/rotation.h>
+#include <ceres/tiny_solver.h>
+#include <ceres/tiny_solver_autodiff_function.h>
 #include <glog/logging.h>
 #include <opengv/point_cloud/PointCloudAdapter.hpp>
 #include <opengv/point_cloud/methods.hpp>
@@ -42,6 +45,48 @@ std::vector<int> InliersOf(const Eigen::Isometry3d& T_a_b, const std::vector<Eig
   return inliers;
 }
 
+// The whitened residuals L_i^-1 (a_i - (Exp(w) R0 b_i + t0 + dt)) of correspondences, as
+// functions of a correction x = (w, dt) to a starting pose (R0, t0).
+class WhitenedCorrection {
+ public:
+  explicit WhitenedCorrection(const Eigen::Isometry3d& start) : start_(start) {}
+
+  void Add(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Matrix3d& whitening) {
+    a_minus_t0_.push_back(a - start_.translation());
+    R0_b_.push_back(start_.linear() * b);
+    whitening_.push_back(whitening);
+  }
+
+  int NumResiduals() const { return 3 * static_cast<int>(R0_b_.size()); }
+
+  template <typename T>
+  bool operator()(const T* x, T* residual) const {
+    for (size_t k = 0; k < R0_b_.size(); ++k) {
+      const T point[3] = {T(R0_b_[k].x()), T(R0_b_[k].y()), T(R0_b_[k].z())};
+      T rotated[3];
+      ceres::AngleAxisRotatePoint(x, point, rotated);
+      Eigen::Matrix<T, 3, 1> r;
+      for (int j = 0; j < 3; ++j) r[j] = T(a_minus_t0_[k][j]) - rotated[j] - x[3 + j];
+      Eigen::Map<Eigen::Matrix<T, 3, 1>>(residual + 3 * k) = whitening_[k].cast<T>() * r;
+    }
+    return true;
+  }
+
+  Eigen::Isometry3d Corrected(const Eigen::Matrix<double, 6, 1>& x) const {
+    Eigen::Matrix3d dR;
+    ceres::AngleAxisToRotationMatrix(x.data(), ceres::ColumnMajorAdapter3x3(dR.data()));
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.linear() = dR * start_.linear();
+    T.translation() = start_.translation() + x.tail<3>();
+    return T;
+  }
+
+ private:
+  Eigen::Isometry3d start_;
+  std::vector<Eigen::Vector3d> a_minus_t0_, R0_b_;
+  std::vector<Eigen::Matrix3d> whitening_;
+};
+
 // The two points' noise, Sigma_a + R Sigma_b R^T, inverted as the whitening L^-1.
 class CorrespondenceNoise {
  public:
@@ -73,52 +118,29 @@ class CorrespondenceNoise {
     return inliers;
   }
 
-  // The pose minimising sum r^T S^-1 r over `inliers`, S at the rotation of `start`:
-  // Gauss-Newton on SO(3) x R^3 from `start` (R <- Exp(w) R, t <- t + dt), which converges
-  // in a few steps from Arun's pose. Ceres with EigenQuaternionManifold gave the same poses
-  // but cost ~0.5 ms more per registration, problem set-up for a 6-parameter fit: ~8 ms
-  // per frame when `--selector all` registers each frame against several base frames.
+  // The pose minimising sum r^T S^-1 r over `inliers`, S at the rotation of `start`: Ceres'
+  // TinySolver (Levenberg-Marquardt, automatic derivatives) on a correction to `start`, which
+  // converges in a few steps from Arun's pose. A ceres::Problem with EigenQuaternionManifold
+  // gave the same poses but cost ~0.5 ms more per registration, set-up for a 6-parameter fit:
+  // ~8 ms per frame when `--selector all` registers each frame against several base frames.
   Eigen::Isometry3d WeightedFit(const Eigen::Isometry3d& start,
                                 const std::vector<Eigen::Vector3d>& a,
                                 const std::vector<Eigen::Vector3d>& b,
                                 const std::vector<int>& inliers) const {
-    std::vector<Eigen::Matrix3d> information;  // S^-1, held at the starting rotation
-    information.reserve(inliers.size());
-    for (int i : inliers) {
-      const Eigen::Matrix3d L_inverse = Whitening(i, start.linear());
-      information.push_back(L_inverse.transpose() * L_inverse);
-    }
-    Eigen::Matrix3d R = start.linear();
-    Eigen::Vector3d t = start.translation();
-    for (int iteration = 0; iteration < kMaxGaussNewtonIterations; ++iteration) {
-      Eigen::Matrix<double, 6, 6> H = Eigen::Matrix<double, 6, 6>::Zero();
-      Eigen::Matrix<double, 6, 1> g = Eigen::Matrix<double, 6, 1>::Zero();
-      for (size_t k = 0; k < inliers.size(); ++k) {
-        const Eigen::Vector3d Rb = R * b[inliers[k]];
-        const Eigen::Vector3d r = a[inliers[k]] - Rb - t;
-        Eigen::Matrix<double, 3, 6> J;  // dr/d(w, dt)
-        J.leftCols<3>() << 0.0, -Rb.z(), Rb.y(), Rb.z(), 0.0, -Rb.x(), -Rb.y(), Rb.x(), 0.0;
-        J.rightCols<3>() = -Eigen::Matrix3d::Identity();
-        const Eigen::Matrix<double, 6, 3> JtW = J.transpose() * information[k];
-        H += JtW * J;
-        g += JtW * r;
-      }
-      const Eigen::Matrix<double, 6, 1> step = -H.ldlt().solve(g);
-      if (!step.allFinite()) break;  // degenerate inliers: the spread check refuses them
-      const Eigen::Vector3d w = step.head<3>();
-      if (w.norm() > 0.0) R = Eigen::AngleAxisd(w.norm(), w.normalized()).toRotationMatrix() * R;
-      t += step.tail<3>();
-      if (w.norm() < 1e-12 && step.tail<3>().norm() < 1e-12) break;
-    }
-    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-    // Re-orthonormalise the product of small rotations.
-    T.linear() = Eigen::Quaterniond(R).normalized().toRotationMatrix();
-    T.translation() = t;
-    return T;
+    WhitenedCorrection correction(start);
+    for (int i : inliers) correction.Add(a[i], b[i], Whitening(i, start.linear()));
+    using Function = ceres::TinySolverAutoDiffFunction<WhitenedCorrection, Eigen::Dynamic, 6>;
+    const Function function(correction);
+    ceres::TinySolver<Function> solver;
+    solver.options.max_num_iterations = kMaxIterations;
+    Eigen::Matrix<double, 6, 1> x = Eigen::Matrix<double, 6, 1>::Zero();
+    solver.Solve(function, &x);
+    if (!x.allFinite()) return start;  // degenerate inliers: the spread check refuses them
+    return correction.Corrected(x);
   }
 
  private:
-  static constexpr int kMaxGaussNewtonIterations = 10;
+  static constexpr int kMaxIterations = 10;
 
   const std::vector<Eigen::Matrix3d>& covariances_a_;
   const std::vector<Eigen::Matrix3d>& covariances_b_;
