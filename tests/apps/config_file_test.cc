@@ -38,14 +38,14 @@ TEST(ConfigFileTest, ValuesOverrideDefaults) {
   RunOptions options;
   ApplyConfigFile(WriteTemp("ok", "%YAML:1.0\nselector: { kind: \"all\", buffer: 5 }\n"
                                   "features: { image_scale: 1.0 }\n"
-                                  "registration: { inlier_chi2: 11.34, use_point_covariances: 0 }\n"),
+                                  "registration: { inlier_chi2: 11.34, use_point_covariances: 1 }\n"),
                   &options);
   EXPECT_EQ(options.selector.kind, SelectorKind::kAll);
   EXPECT_EQ(options.selector.buffer_size, 5);
   EXPECT_EQ(options.source.frontend.features.image_scale, 1.0);
   EXPECT_EQ(options.source.frontend.features.max_features, FeatureOptions().max_features);
   EXPECT_EQ(options.source.frontend.registration.inlier_chi2, 11.34);
-  EXPECT_FALSE(options.source.frontend.registration.use_point_covariances);
+  EXPECT_TRUE(options.source.frontend.registration.use_point_covariances);
 }
 
 TEST(ConfigFileTest, BadFilesNameTheKey) {

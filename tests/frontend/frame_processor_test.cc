@@ -123,7 +123,9 @@ void ExpectSyntheticPairsRegisterWithinNoise(SyntheticSensor sensor, double max_
   SyntheticDatasetOptions options;
   options.sensor = sensor;
   const Rig rig = SyntheticRig(sensor);
-  const FrameProcessor processor(rig, FrontendOptions());
+  FrontendOptions frontend;
+  frontend.registration.use_point_covariances = true;  // the synthetic rigs' model is exact
+  const FrameProcessor processor(rig, frontend);
   auto process = [&](int i) {
     const SyntheticFrame frame = RenderSyntheticFrame(
         scene, rig, SyntheticTrajectoryPose(options.trajectory, i, 300), options, i);
