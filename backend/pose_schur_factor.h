@@ -106,6 +106,8 @@ enum class SchurUpdate {
 
 class PoseSchurFactor {
  public:
+  using Matrix63 = Eigen::Matrix<double, 6, 3>;
+
   explicit PoseSchurFactor(const PoseSchurOptions& options = PoseSchurOptions());
 
   // Adds a pose at state offset `pose_offset` with its 6x6 block (observations plus any
@@ -156,7 +158,7 @@ class PoseSchurFactor {
     int poses_synced = 0;
     bool unsynced = false;  // listed in unsynced_
     std::vector<int> poses;                                  // pose indices
-    std::vector<Eigen::Matrix<double, 6, 3>> couplings;      // I_pf per pose
+    std::vector<Matrix63> couplings;                         // I_pf per pose
   };
   // A new order of the factor's positions: from `first` on it changes.
   struct Plan {
@@ -223,9 +225,18 @@ class PoseSchurFactor {
   std::vector<Feature> features_;
   std::unordered_map<int, int> feature_of_offset_;
   int64_t num_couplings_ = 0;                   // pose-feature blocks in all
+  // The couplings again, pose by pose (pose index order, each pose's in feature order, so
+  // that sums over them run in the same order as feature by feature): the passes over all
+  // of them (CG's products with S, the right-hand side, the features' recovery) stream
+  // them from one array instead of hopping between the features' own.
+  std::vector<Matrix63, Eigen::aligned_allocator<Matrix63>> pose_couplings_;
+  std::vector<int> pose_coupling_features_;     // feature index of each
+  std::vector<int> pose_coupling_ends_;         // pose index -> end of its couplings
   std::vector<int> last_touched_;               // pose index -> update count
   int updates_ = 0;
-  Eigen::MatrixXd S_;      // pose index order, allocated with room to grow
+  // Pose index order, with room to grow; only the 6x6 blocks on and below the diagonal are
+  // kept (Sync writes no others).
+  Eigen::MatrixXd S_;
   Eigen::MatrixXd L_;      // order_ (positions), lower triangle
   Eigen::MatrixXd C_;      // trailing Schur complement of the window (window positions)
   Eigen::MatrixXf L_single_;  // float L: CG's preconditioner (allocated on first use)

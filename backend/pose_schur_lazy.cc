@@ -76,8 +76,7 @@ void PoseSchurFactor::Sync() {
   if (synced == k && unsynced_.empty()) return;
   Grow(6 * k);
   if (k > synced) {
-    S_.block(0, 6 * synced, 6 * k, 6 * (k - synced)).setZero();
-    S_.block(6 * synced, 0, 6 * (k - synced), 6 * synced).setZero();
+    S_.block(6 * synced, 0, 6 * (k - synced), 6 * k).setZero();
     for (int pose = synced; pose < k; ++pose) S_.block<6, 6>(6 * pose, 6 * pose) = pose_blocks_[pose];
   }
   for (const int index : unsynced_) {
@@ -94,7 +93,8 @@ void PoseSchurFactor::Sync() {
       MBt[j] = M * feature.couplings[j].transpose();
       FBt[j] = feature.F_inv * feature.couplings[j].transpose();
     }
-    // The lower blocks, each mirrored (a feature's poses are distinct).
+    // The blocks below the diagonal only (a feature's poses are increasing): S_ keeps no
+    // upper ones.
     for (int i = 0; i < p; ++i) {
       for (int j = 0; j <= i; ++j) {
         Eigen::Matrix<double, 6, 6> block;
@@ -104,7 +104,6 @@ void PoseSchurFactor::Sync() {
           block.noalias() = -feature.couplings[i] * FBt[j];
         }
         S_.block<6, 6>(6 * feature.poses[i], 6 * feature.poses[j]) += block;
-        if (j < i) S_.block<6, 6>(6 * feature.poses[j], 6 * feature.poses[i]) += block.transpose();
       }
     }
     feature.F_synced = feature.F;
@@ -173,19 +172,27 @@ void PoseSchurFactor::ApplyPreconditioner(bool single, Eigen::VectorXd* z) const
 }
 
 void PoseSchurFactor::MultiplyS(const Eigen::VectorXd& x, Eigen::VectorXd* y) const {
+  // u_f = E_f x, then y = I_pp x - E^T F^-1 u, pose by pose.
+  Eigen::Matrix3Xd u = Eigen::Matrix3Xd::Zero(3, features_.size());
+  int e = 0;
+  for (int pose = 0; pose < num_poses(); ++pose) {
+    const auto x_pose = x.segment<6>(6 * position_[pose]);
+    for (const int end = pose_coupling_ends_[pose]; e < end; ++e) {
+      u.col(pose_coupling_features_[e]).noalias() += pose_couplings_[e].transpose() * x_pose;
+    }
+  }
+  for (size_t f = 0; f < features_.size(); ++f) {
+    const Eigen::Vector3d v = features_[f].F_inv * u.col(f);
+    u.col(f) = v;
+  }
   y->resize(dim());
+  e = 0;
   for (int pose = 0; pose < num_poses(); ++pose) {
     const int row = 6 * position_[pose];
-    y->segment<6>(row).noalias() = pose_blocks_[pose] * x.segment<6>(row);
-  }
-  for (const Feature& feature : features_) {
-    Eigen::Vector3d u = Eigen::Vector3d::Zero();
-    for (size_t e = 0; e < feature.poses.size(); ++e) {
-      u.noalias() += feature.couplings[e].transpose() * x.segment<6>(6 * position_[feature.poses[e]]);
-    }
-    const Eigen::Vector3d v = feature.F_inv * u;
-    for (size_t e = 0; e < feature.poses.size(); ++e) {
-      y->segment<6>(6 * position_[feature.poses[e]]).noalias() -= feature.couplings[e] * v;
+    auto y_pose = y->segment<6>(row);
+    y_pose.noalias() = pose_blocks_[pose] * x.segment<6>(row);
+    for (const int end = pose_coupling_ends_[pose]; e < end; ++e) {
+      y_pose.noalias() -= pose_couplings_[e] * u.col(pose_coupling_features_[e]);
     }
   }
 }
