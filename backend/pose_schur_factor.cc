@@ -107,9 +107,12 @@ bool PoseSchurFactor::AddPose(int pose_offset, const Eigen::Matrix<double, 6, 6>
   std::sort(touched.begin(), touched.end());
   touched.erase(std::unique(touched.begin(), touched.end()), touched.end());
   const int t = static_cast<int>(touched.size());
-  const Choice choice = update == SchurUpdate::kLazy && valid_ && t > 0 ? ChooseUpdate(touched)
-                                                                        : Choice::kExact;
-  const bool lazy = choice == Choice::kLazy;
+  const bool chosen = update == SchurUpdate::kLazy && valid_ && t > 0;
+  const Choice choice = chosen ? ChooseUpdate(touched) : Choice::kExact;
+  // A renewal, or an exact update that refactors from S (not from the window's C), takes
+  // the update in lazily first (checking that S stays positive definite), then brings S up
+  // to date in one pass over the features this and the lazy updates changed.
+  const bool lazy = chosen && (choice != Choice::kExact || !was_exact);
   // Anything else changes S itself: first the lazy updates' changes.
   if (!lazy) Sync();
 
@@ -228,11 +231,17 @@ bool PoseSchurFactor::AddPose(int pose_offset, const Eigen::Matrix<double, 6, 6>
     ok = Refactor();
   } else if (lazy) {
     ok = PrepareLazyPreconditioner();  // false: S is not positive definite
+    if (ok && choice != Choice::kLazy) {
+      Sync();
+      const Plan plan = PlanWindow(DirtyPoses());
+      // Should both fail (S numerically indefinite), the lazy preconditioner stays.
+      if (choice != Choice::kRenew || !RenewInSingle(plan.first, plan.order, plan.window_start)) {
+        FactorFrom(plan.first, plan.order, plan.window_start, nullptr);
+      }
+    }
   } else {
     const Plan plan = PlanWindow(DirtyPoses());
-    if (choice == Choice::kRenew && RenewInSingle(plan.first, plan.order, plan.window_start)) {
-      ok = true;
-    } else if (was_exact && plan.first == window_start_) {
+    if (was_exact && plan.first == window_start_) {
       const Eigen::MatrixXd T = UpdatedWindow(plan, local, D);
       ok = FactorFrom(plan.first, plan.order, plan.window_start, &T);
     } else {

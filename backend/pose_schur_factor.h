@@ -35,7 +35,9 @@
 // loop, where the window keeps it small); the factor is renewed (in float, below) when the
 // lazy solves since the last factorisation have cost, beyond what the first of them cost
 // (CG needs more iterations as M ages, and N grows), as much as renewing: a ski-rental
-// rule, on flop estimates so that the same inputs give the same bits. Measured on the
+// rule, on flop estimates so that the same inputs give the same bits. A refactorisation
+// after lazy updates takes its own update in lazily too (the check through C), then brings
+// S_ up to date in one pass over the features they all changed. Measured on the
 // paper's simulation at 300 poses: CG takes 5-7 iterations right after a factorisation,
 // ~10 thirty updates later.
 //
