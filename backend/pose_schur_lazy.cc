@@ -79,36 +79,43 @@ void PoseSchurFactor::Sync() {
     S_.block(6 * synced, 0, 6 * (k - synced), 6 * k).setZero();
     for (int pose = synced; pose < k; ++pose) S_.block<6, 6>(6 * pose, 6 * pose) = pose_blocks_[pose];
   }
-  for (const int index : unsynced_) {
-    Feature& feature = features_[index];
-    // Pairs of poses that S has seen: F_synced^-1 - F^-1; pairs with a new pose: -F^-1.
-    const int a = feature.poses_synced, p = static_cast<int>(feature.poses.size());
-    Eigen::Matrix3d M = Eigen::Matrix3d::Zero();
-    if (a > 0) {
-      M = feature.F_inv_synced * (feature.F - feature.F_synced) * feature.F_inv;
-      M = 0.5 * (M + M.transpose());
+  // Pairs of poses that S has seen: F_synced^-1 - F^-1; pairs with a new pose: -F^-1.
+  const int count = static_cast<int>(unsynced_.size());
+  std::vector<Eigen::Matrix3d> M(count, Eigen::Matrix3d::Zero());
+  std::vector<std::vector<std::pair<int, int>>> seen_by(k);  // pose -> (unsynced_ slot, e)
+  for (int slot = 0; slot < count; ++slot) {
+    const Feature& feature = features_[unsynced_[slot]];
+    if (feature.poses_synced > 0) {
+      M[slot] = feature.F_inv_synced * (feature.F - feature.F_synced) * feature.F_inv;
+      M[slot] = 0.5 * (M[slot] + M[slot].transpose());
     }
-    std::vector<Eigen::Matrix<double, 3, 6>> MBt(p), FBt(p);
-    for (int j = 0; j < p; ++j) {
-      MBt[j] = M * feature.couplings[j].transpose();
-      FBt[j] = feature.F_inv * feature.couplings[j].transpose();
-    }
-    // The blocks below the diagonal only (a feature's poses are increasing): S_ keeps no
-    // upper ones.
-    for (int i = 0; i < p; ++i) {
-      for (int j = 0; j <= i; ++j) {
+    for (size_t e = 0; e < feature.poses.size(); ++e) seen_by[feature.poses[e]].emplace_back(slot, e);
+  }
+  // The blocks below the diagonal only (S_ keeps no others; a feature's poses are
+  // increasing), a pose's columns at a time: they stay in cache while every feature it saw
+  // adds to them (each block still sums its features in the order of unsynced_).
+  for (int pose = 0; pose < k; ++pose) {
+    for (const auto& [slot, j] : seen_by[pose]) {
+      const Feature& feature = features_[unsynced_[slot]];
+      const int a = feature.poses_synced, p = static_cast<int>(feature.poses.size());
+      const Eigen::Matrix<double, 3, 6> MBt = M[slot] * feature.couplings[j].transpose();
+      const Eigen::Matrix<double, 3, 6> FBt = feature.F_inv * feature.couplings[j].transpose();
+      for (int i = j; i < p; ++i) {
         Eigen::Matrix<double, 6, 6> block;
-        if (i < a && j < a) {
-          block.noalias() = feature.couplings[i] * MBt[j];
+        if (i < a) {
+          block.noalias() = feature.couplings[i] * MBt;
         } else {
-          block.noalias() = -feature.couplings[i] * FBt[j];
+          block.noalias() = -feature.couplings[i] * FBt;
         }
-        S_.block<6, 6>(6 * feature.poses[i], 6 * feature.poses[j]) += block;
+        S_.block<6, 6>(6 * feature.poses[i], 6 * pose) += block;
       }
     }
+  }
+  for (const int index : unsynced_) {
+    Feature& feature = features_[index];
     feature.F_synced = feature.F;
     feature.F_inv_synced = feature.F_inv;
-    feature.poses_synced = p;
+    feature.poses_synced = static_cast<int>(feature.poses.size());
     feature.unsynced = false;
   }
   unsynced_.clear();
