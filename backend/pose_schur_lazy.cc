@@ -132,7 +132,14 @@ bool PoseSchurFactor::PrepareLazyPreconditioner() {
   for (int pose = factored; pose < num_poses(); ++pose) {
     C.block<6, 6>(6 * (pose - factored), 6 * (pose - factored)) = pose_blocks_[pose];
   }
-  for (const Feature& feature : features_) {
+  // The features the lazy poses saw, in index order.
+  const int first_lazy = factored > 0 ? pose_coupling_ends_[factored - 1] : 0;
+  std::vector<int> seen(pose_coupling_features_.begin() + first_lazy,
+                        pose_coupling_features_.end());
+  std::sort(seen.begin(), seen.end());
+  seen.erase(std::unique(seen.begin(), seen.end()), seen.end());
+  for (const int index : seen) {
+    const Feature& feature = features_[index];
     const int p = static_cast<int>(feature.poses.size());
     // Poses are appended in order: the lazy poses' observations come last.
     for (int e = p - 1; e >= 0 && feature.poses[e] >= factored; --e) {
