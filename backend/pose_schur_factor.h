@@ -50,8 +50,19 @@
 // leaves the double factor exact only in the leading columns it did not touch: MakeExact
 // refactors the rest in double, and an exact update after a renewal costs accordingly
 // (which the choice counts). If the float factorisation fails (S too ill-conditioned for
-// it), the double one decides. Measured at 300 poses (the 7,275-dimensional benchmark): 34-41
-// ms per update on average instead of 53-55, side by side on a noisy shared machine.
+// it), the double one decides (and should that fail too, the lazy preconditioner stays: S
+// passed the check through C). Measured at 300 poses (the 7,275-dimensional benchmark):
+// 34-41 ms per update on average instead of 53-55, side by side on a noisy shared machine.
+//
+// Where the time goes now (timers on the same benchmark, 24 updates): ~45% in CG, each
+// iteration ~0.7-0.9 ms for S x (two passes over ~30,000 couplings, which are also kept
+// pose by pose so that the passes stream them from one array) and ~0.5 ms for the two
+// float triangular solves, both bound by memory; ~40% in a renewal every ~7 updates (~70 ms
+// to factor in float, ~11-14 ms for Sync, which writes S's lower blocks a pose's columns at
+// a time). That is ~0.62 of the mean update time before these (couplings read feature by
+// feature, S mirrored, a renewal's own change of S formed apart), side by side. A second
+// thread for the factorisation gained nothing on the 2-vCPU machine (two single-threaded
+// factorisations at once each took twice as long).
 //
 // Memory is O(P^2) (S and L, 6P square, and L's float copy), so the filter uses it only up
 // to a pose dimension.

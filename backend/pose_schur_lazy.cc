@@ -89,7 +89,9 @@ void PoseSchurFactor::Sync() {
       M[slot] = feature.F_inv_synced * (feature.F - feature.F_synced) * feature.F_inv;
       M[slot] = 0.5 * (M[slot] + M[slot].transpose());
     }
-    for (size_t e = 0; e < feature.poses.size(); ++e) seen_by[feature.poses[e]].emplace_back(slot, e);
+    for (size_t e = 0; e < feature.poses.size(); ++e) {
+      seen_by[feature.poses[e]].emplace_back(slot, static_cast<int>(e));
+    }
   }
   // The blocks below the diagonal only (S_ keeps no others; a feature's poses are
   // increasing), a pose's columns at a time: they stay in cache while every feature it saw
