@@ -59,8 +59,8 @@
 // pose by pose so that the passes stream them from one array) and ~0.5 ms for the two
 // float triangular solves, both bound by memory; ~40% in a renewal every ~7 updates (~70 ms
 // to factor in float, ~11-14 ms for Sync, which writes S's lower blocks a pose's columns at
-// a time). That is ~0.62 of the mean update time before these (couplings read feature by
-// feature, S mirrored, a renewal's own change of S formed apart), side by side. A second
+// a time). That is 0.62-0.76 of the mean update time before these (couplings read feature
+// by feature, S mirrored, a renewal's own change of S formed apart), side by side. A second
 // thread for the factorisation gained nothing on the 2-vCPU machine (two single-threaded
 // factorisations at once each took twice as long).
 //
