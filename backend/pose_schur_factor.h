@@ -60,9 +60,10 @@
 // float triangular solves, both bound by memory; ~40% in a renewal every ~7 updates (~70 ms
 // to factor in float, ~11-14 ms for Sync, which writes S's lower blocks a pose's columns at
 // a time). That is 0.62-0.76 of the mean update time before these (couplings read feature
-// by feature, S mirrored, a renewal's own change of S formed apart), side by side. A second
-// thread for the factorisation gained nothing on the 2-vCPU machine (two single-threaded
-// factorisations at once each took twice as long).
+// by feature, S mirrored, a renewal's own change of S formed apart), side by side. Not used:
+// a tiled factorisation on two threads (same bits for any count), 1.5x faster alone on the
+// 2-vCPU machine when quiet, but no faster in the benchmark while others shared it, and
+// up to 1.5x slower under heavy load.
 //
 // Memory is O(P^2) (S and L, 6P square, and L's float copy), so the filter uses it only up
 // to a pose dimension.
