@@ -69,7 +69,7 @@ struct InformationFilterOptions {
   double cg_tolerance = 1e-10;
   int cg_max_iterations = 60;
   // How many refactoring flops a CG flop costs, for the choice (PoseSchurOptions).
-  double cg_flop_weight = 5.0;
+  double cg_flop_weight = 2.0;
   // A new pose is constrained only by its observations of features already in the map;
   // with (u, v, d) observations three features in general position determine it.
   int min_known_features = 3;

@@ -100,9 +100,14 @@ struct PoseSchurOptions {
   int cg_max_iterations = 60;
   // CG streams the factor and the couplings from memory, at a fraction of the flop rate of
   // the blocked factorisation: in the lazy-versus-exact cost comparisons its flops count
-  // this many times. Measured on the paper's simulation at 300 poses: ~1 Gflop/s in CG
-  // iterations, ~5 Gflop/s refactoring. (0: lazy whenever possible, for tests.)
-  double cg_flop_weight = 5.0;
+  // this many times. Measured on the paper's simulation at 300 poses: a CG iteration (~5.6
+  // Mflop as CgIterationFlops counts) takes ~1.1-1.4 ms, a renewal (~0.49 Gflop as counted)
+  // ~72 ms with its Sync, so ~1.3-1.6; of 1.5, 2, 3 and 5 (the weight when CG read the
+  // couplings feature by feature), 2 and 1.5 renew every 12-14 updates instead of 7 and
+  // spend ~15 ms per update on CG and renewals together instead of ~18 (counted iterations
+  // and renewals priced at those times), and 2 ran the all-frames simulation in 0.9 of the
+  // time of 5. (0: lazy whenever possible, for tests.)
+  double cg_flop_weight = 2.0;
   // The float factorisation's flop rate over the double one's, for the choice between
   // renewing the preconditioner in float and refactoring exactly (0: never in float).
   // SSE2 holds 4 floats or 2 doubles; measured on the paper's simulation at 300 poses, a
