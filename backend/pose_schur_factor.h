@@ -54,13 +54,14 @@
 // passed the check through C). Measured at 300 poses (the 7,275-dimensional benchmark):
 // 34-41 ms per update on average instead of 53-55, side by side on a noisy shared machine.
 //
-// Where the time goes now (timers on the same benchmark, 24 updates): ~45% in CG, each
-// iteration ~0.7-0.9 ms for S x (two passes over ~30,000 couplings, which are also kept
-// pose by pose so that the passes stream them from one array) and ~0.5 ms for the two
-// float triangular solves, both bound by memory; ~40% in a renewal every ~7 updates (~70 ms
-// to factor in float, ~11-14 ms for Sync, which writes S's lower blocks a pose's columns at
-// a time). That is 0.62-0.76 of the mean update time before these (couplings read feature
-// by feature, S mirrored, a renewal's own change of S formed apart), side by side. Not used:
+// Where the time goes now (timers on the same benchmark, 24 updates): about half in CG,
+// each iteration ~0.6-0.9 ms for S x (two passes over ~30,000 couplings, which are also
+// kept pose by pose so that the passes stream them from one array) and ~0.5 ms for the two
+// float triangular solves, both bound by memory; about a third in a renewal every ~12
+// updates (~62 ms to factor in float, ~8-14 ms for Sync, which writes S's lower blocks a
+// pose's columns at a time). That is 0.62-0.76 of the mean update time before these
+// changes (couplings read feature by feature, S mirrored, a renewal's own change of S
+// formed apart, cg_flop_weight 5 and renewals every ~7 updates), side by side. Not used:
 // a tiled factorisation on two threads (same bits for any count), 1.5x faster alone on the
 // 2-vCPU machine when quiet, but no faster in the benchmark while others shared it, and
 // up to 1.5x slower under heavy load.
