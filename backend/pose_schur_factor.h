@@ -54,10 +54,10 @@
 // passed the check through C). Measured at 300 poses (the 7,275-dimensional benchmark):
 // 34-41 ms per update on average instead of 53-55, side by side on a noisy shared machine.
 //
-// Where the time goes now (timers on the same benchmark, 24 updates): about half in CG,
+// Where the time goes now (timers on the same benchmark, 24 updates): ~60% in CG,
 // each iteration ~0.6-0.9 ms for S x (two passes over ~30,000 couplings, which are also
 // kept pose by pose so that the passes stream them from one array) and ~0.5 ms for the two
-// float triangular solves, both bound by memory; about a third in a renewal every ~12
+// float triangular solves, both bound by memory; ~27% in a renewal every ~12
 // updates (~62 ms to factor in float, ~8-14 ms for Sync, which writes S's lower blocks a
 // pose's columns at a time). That is 0.62-0.76 of the mean update time before these
 // changes (couplings read feature by feature, S mirrored, a renewal's own change of S
