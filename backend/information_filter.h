@@ -62,12 +62,14 @@ struct InformationFilterOptions {
   // Measured (CPU time, noisy shared machine): the paper's all-frames simulation 3.8 s a run
   // instead of 11.5 s; an update at state 7,389 (300 poses) 34-41 ms on average over 24
   // (the preconditioner in float; 53-55 ms in double, measured side by side) instead of
-  // ~195 ms.
+  // ~195 ms; since the couplings are streamed pose by pose, S synced by columns and
+  // cg_flop_weight lowered to 2, 0.62-0.76 of that (18-26 ms against 28-35, side by side;
+  // the all-frames simulation's run 2.0 s against 2.9).
   bool iterative_recovery = true;
   double cg_tolerance = 1e-10;
   int cg_max_iterations = 60;
   // How many refactoring flops a CG flop costs, for the choice (PoseSchurOptions).
-  double cg_flop_weight = 5.0;
+  double cg_flop_weight = 2.0;
   // A new pose is constrained only by its observations of features already in the map;
   // with (u, v, d) observations three features in general position determine it.
   int min_known_features = 3;

@@ -11,7 +11,7 @@ namespace ieslam {
 
 namespace {
 
-using Matrix63 = Eigen::Matrix<double, 6, 3>;
+using Matrix63 = PoseSchurFactor::Matrix63;
 
 // F^-1 for a symmetric positive definite 3x3 F, exactly symmetric.
 Eigen::Matrix3d SymmetricInverse(const Eigen::Matrix3d& F) {
@@ -46,8 +46,9 @@ Matrix LeadingColumns(const Matrix& L, int first, int columns, const std::vector
 }
 
 // S's block of the positions from `first` of `order` (pose per position), in that order:
-// the 6x6 blocks on and below the diagonal only (the rest is left unset). By blocks: an
-// indexed view of the scalar rows gathers coefficient by coefficient, ~3x slower.
+// the 6x6 blocks on and below the diagonal only (the rest is left unset), each read from
+// S's lower blocks (in pose order; S keeps no others). By blocks: an indexed view of the
+// scalar rows gathers coefficient by coefficient, ~3x slower.
 template <typename Scalar>
 Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic> GatherLower(const Eigen::MatrixXd& S,
                                                                  const std::vector<int>& order,
@@ -55,10 +56,16 @@ Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic> GatherLower(const Eigen::M
   const int m = static_cast<int>(order.size()) - first;
   Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic> T(6 * m, 6 * m);
   for (int b = 0; b < m; ++b) {
-    const int col = 6 * order[first + b];
+    const int col_pose = order[first + b];
     for (int a = b; a < m; ++a) {
-      T.template block<6, 6>(6 * a, 6 * b) =
-          S.block<6, 6>(6 * order[first + a], col).template cast<Scalar>();
+      const int row_pose = order[first + a];
+      if (row_pose >= col_pose) {
+        T.template block<6, 6>(6 * a, 6 * b) =
+            S.block<6, 6>(6 * row_pose, 6 * col_pose).template cast<Scalar>();
+      } else {
+        T.template block<6, 6>(6 * a, 6 * b) =
+            S.block<6, 6>(6 * col_pose, 6 * row_pose).transpose().template cast<Scalar>();
+      }
     }
   }
   return T;
@@ -100,9 +107,12 @@ bool PoseSchurFactor::AddPose(int pose_offset, const Eigen::Matrix<double, 6, 6>
   std::sort(touched.begin(), touched.end());
   touched.erase(std::unique(touched.begin(), touched.end()), touched.end());
   const int t = static_cast<int>(touched.size());
-  const Choice choice = update == SchurUpdate::kLazy && valid_ && t > 0 ? ChooseUpdate(touched)
-                                                                        : Choice::kExact;
-  const bool lazy = choice == Choice::kLazy;
+  const bool chosen = update == SchurUpdate::kLazy && valid_ && t > 0;
+  const Choice choice = chosen ? ChooseUpdate(touched) : Choice::kExact;
+  // A renewal, or an exact update that refactors from S (not from the window's C), takes
+  // the update in lazily first (checking that S stays positive definite), then brings S up
+  // to date in one pass over the features this and the lazy updates changed.
+  const bool lazy = chosen && (choice != Choice::kExact || !was_exact);
   // Anything else changes S itself: first the lazy updates' changes.
   if (!lazy) Sync();
 
@@ -167,6 +177,7 @@ bool PoseSchurFactor::AddPose(int pose_offset, const Eigen::Matrix<double, 6, 6>
   std::vector<std::pair<int, Feature>> saved;  // re-observed features as they were
   const int old_features = static_cast<int>(features_.size());
   const size_t old_unsynced = unsynced_.size();
+  std::vector<std::pair<int, int>> feature_order;  // (feature index, observation)
   for (size_t o = 0; o < observations.size(); ++o) {
     const SchurObservation& obs = observations[o];
     int index;
@@ -182,6 +193,7 @@ bool PoseSchurFactor::AddPose(int pose_offset, const Eigen::Matrix<double, 6, 6>
       old.couplings.clear();
       saved.emplace_back(index, std::move(old));
     }
+    feature_order.emplace_back(index, static_cast<int>(o));
     Feature& feature = features_[index];
     feature.F += obs.I_ff;
     feature.F_inv = new_inverse[o];
@@ -197,6 +209,12 @@ bool PoseSchurFactor::AddPose(int pose_offset, const Eigen::Matrix<double, 6, 6>
       unsynced_.push_back(index);
     }
   }
+  std::sort(feature_order.begin(), feature_order.end());
+  for (const auto& [index, o] : feature_order) {
+    pose_couplings_.push_back(observations[o].I_pf);
+    pose_coupling_features_.push_back(index);
+  }
+  pose_coupling_ends_.push_back(static_cast<int>(pose_couplings_.size()));
   pose_offsets_.push_back(pose_offset);
   pose_of_offset_[pose_offset] = k;
   pose_blocks_.push_back(I_pp);
@@ -213,11 +231,17 @@ bool PoseSchurFactor::AddPose(int pose_offset, const Eigen::Matrix<double, 6, 6>
     ok = Refactor();
   } else if (lazy) {
     ok = PrepareLazyPreconditioner();  // false: S is not positive definite
+    if (ok && choice != Choice::kLazy) {
+      Sync();
+      const Plan plan = PlanWindow(DirtyPoses());
+      // Should both fail (S numerically indefinite), the lazy preconditioner stays.
+      if (choice != Choice::kRenew || !RenewInSingle(plan.first, plan.order, plan.window_start)) {
+        FactorFrom(plan.first, plan.order, plan.window_start, nullptr);
+      }
+    }
   } else {
     const Plan plan = PlanWindow(DirtyPoses());
-    if (choice == Choice::kRenew && RenewInSingle(plan.first, plan.order, plan.window_start)) {
-      ok = true;
-    } else if (was_exact && plan.first == window_start_) {
+    if (was_exact && plan.first == window_start_) {
       const Eigen::MatrixXd T = UpdatedWindow(plan, local, D);
       ok = FactorFrom(plan.first, plan.order, plan.window_start, &T);
     } else {
@@ -243,6 +267,10 @@ bool PoseSchurFactor::AddPose(int pose_offset, const Eigen::Matrix<double, 6, 6>
     if (obs.is_new) feature_of_offset_.erase(obs.feature_offset);
   }
   features_.resize(old_features);
+  pose_coupling_ends_.pop_back();
+  const int old_couplings = k > 0 ? pose_coupling_ends_.back() : 0;
+  pose_couplings_.resize(old_couplings);
+  pose_coupling_features_.resize(old_couplings);
   pose_offsets_.pop_back();
   pose_blocks_.pop_back();
   num_couplings_ -= static_cast<int64_t>(observations.size());
@@ -452,14 +480,17 @@ void PoseSchurFactor::Commit(const std::vector<int>& order, int window_start) {
 }
 
 Eigen::VectorXd PoseSchurFactor::ReducedRhs(const Eigen::VectorXd& info_vector) const {
-  Eigen::VectorXd b(dim());
-  for (int pose = 0; pose < num_poses(); ++pose) {
-    b.segment<6>(6 * position_[pose]) = info_vector.segment<6>(pose_offsets_[pose]);
+  Eigen::Matrix3Xd y(3, features_.size());  // F^-1 i_f
+  for (size_t f = 0; f < features_.size(); ++f) {
+    y.col(f) = features_[f].F_inv * info_vector.segment<3>(features_[f].offset);
   }
-  for (const Feature& feature : features_) {
-    const Eigen::Vector3d y = feature.F_inv * info_vector.segment<3>(feature.offset);
-    for (size_t e = 0; e < feature.poses.size(); ++e) {
-      b.segment<6>(6 * position_[feature.poses[e]]) -= feature.couplings[e] * y;
+  Eigen::VectorXd b(dim());
+  int e = 0;
+  for (int pose = 0; pose < num_poses(); ++pose) {
+    auto b_pose = b.segment<6>(6 * position_[pose]);
+    b_pose = info_vector.segment<6>(pose_offsets_[pose]);
+    for (const int end = pose_coupling_ends_[pose]; e < end; ++e) {
+      b_pose -= pose_couplings_[e] * y.col(pose_coupling_features_[e]);
     }
   }
   return b;
@@ -468,15 +499,20 @@ Eigen::VectorXd PoseSchurFactor::ReducedRhs(const Eigen::VectorXd& info_vector) 
 Eigen::VectorXd PoseSchurFactor::FullState(const Eigen::VectorXd& info_vector,
                                            const Eigen::VectorXd& x_p) const {
   Eigen::VectorXd x(info_vector.size());
-  for (int pose = 0; pose < num_poses(); ++pose) {
-    x.segment<6>(pose_offsets_[pose]) = x_p.segment<6>(6 * position_[pose]);
+  Eigen::Matrix3Xd r(3, features_.size());  // i_f - E_f x_p
+  for (size_t f = 0; f < features_.size(); ++f) {
+    r.col(f) = info_vector.segment<3>(features_[f].offset);
   }
-  for (const Feature& feature : features_) {
-    Eigen::Vector3d r = info_vector.segment<3>(feature.offset);
-    for (size_t e = 0; e < feature.poses.size(); ++e) {
-      r -= feature.couplings[e].transpose() * x_p.segment<6>(6 * position_[feature.poses[e]]);
+  int e = 0;
+  for (int pose = 0; pose < num_poses(); ++pose) {
+    const auto x_pose = x_p.segment<6>(6 * position_[pose]);
+    x.segment<6>(pose_offsets_[pose]) = x_pose;
+    for (const int end = pose_coupling_ends_[pose]; e < end; ++e) {
+      r.col(pose_coupling_features_[e]) -= pose_couplings_[e].transpose() * x_pose;
     }
-    x.segment<3>(feature.offset) = feature.F_inv * r;
+  }
+  for (size_t f = 0; f < features_.size(); ++f) {
+    x.segment<3>(features_[f].offset) = features_[f].F_inv * r.col(f);
   }
   return x;
 }

@@ -35,7 +35,9 @@
 // loop, where the window keeps it small); the factor is renewed (in float, below) when the
 // lazy solves since the last factorisation have cost, beyond what the first of them cost
 // (CG needs more iterations as M ages, and N grows), as much as renewing: a ski-rental
-// rule, on flop estimates so that the same inputs give the same bits. Measured on the
+// rule, on flop estimates so that the same inputs give the same bits. A refactorisation
+// after lazy updates takes its own update in lazily too (the check through C), then brings
+// S_ up to date in one pass over the features they all changed. Measured on the
 // paper's simulation at 300 poses: CG takes 5-7 iterations right after a factorisation,
 // ~10 thirty updates later.
 //
@@ -48,8 +50,21 @@
 // leaves the double factor exact only in the leading columns it did not touch: MakeExact
 // refactors the rest in double, and an exact update after a renewal costs accordingly
 // (which the choice counts). If the float factorisation fails (S too ill-conditioned for
-// it), the double one decides. Measured at 300 poses (the 7,275-dimensional benchmark): 34-41
-// ms per update on average instead of 53-55, side by side on a noisy shared machine.
+// it), the double one decides (and should that fail too, the lazy preconditioner stays: S
+// passed the check through C). Measured at 300 poses (the 7,275-dimensional benchmark):
+// 34-41 ms per update on average instead of 53-55, side by side on a noisy shared machine.
+//
+// Where the time goes now (timers on the same benchmark, 24 updates): ~60% in CG,
+// each iteration ~0.6-0.9 ms for S x (two passes over ~30,000 couplings, which are also
+// kept pose by pose so that the passes stream them from one array) and ~0.5 ms for the two
+// float triangular solves, both bound by memory; ~27% in a renewal every ~12
+// updates (~62 ms to factor in float, ~8-14 ms for Sync, which writes S's lower blocks a
+// pose's columns at a time). That is 0.62-0.76 of the mean update time before these
+// changes (couplings read feature by feature, S mirrored, a renewal's own change of S
+// formed apart, cg_flop_weight 5 and renewals every ~7 updates), side by side. Not used:
+// a tiled factorisation on two threads (same bits for any count), 1.5x faster alone on the
+// 2-vCPU machine when quiet, but no faster in the benchmark while others shared it, and
+// up to 1.5x slower under heavy load.
 //
 // Memory is O(P^2) (S and L, 6P square, and L's float copy), so the filter uses it only up
 // to a pose dimension.
@@ -86,9 +101,14 @@ struct PoseSchurOptions {
   int cg_max_iterations = 60;
   // CG streams the factor and the couplings from memory, at a fraction of the flop rate of
   // the blocked factorisation: in the lazy-versus-exact cost comparisons its flops count
-  // this many times. Measured on the paper's simulation at 300 poses: ~1 Gflop/s in CG
-  // iterations, ~5 Gflop/s refactoring. (0: lazy whenever possible, for tests.)
-  double cg_flop_weight = 5.0;
+  // this many times. Measured on the paper's simulation at 300 poses: a CG iteration (~5.6
+  // Mflop as CgIterationFlops counts) takes ~1.1-1.4 ms, a renewal (~0.49 Gflop as counted)
+  // ~72 ms with its Sync, so ~1.3-1.6; of 1.5, 2, 3 and 5 (the weight when CG read the
+  // couplings feature by feature), 2 and 1.5 renew every 12-14 updates instead of 7 and
+  // spend ~15 ms per update on CG and renewals together instead of ~18 (counted iterations
+  // and renewals priced at those times), and 2 ran the all-frames simulation in 0.9 of the
+  // time of 5. (0: lazy whenever possible, for tests.)
+  double cg_flop_weight = 2.0;
   // The float factorisation's flop rate over the double one's, for the choice between
   // renewing the preconditioner in float and refactoring exactly (0: never in float).
   // SSE2 holds 4 floats or 2 doubles; measured on the paper's simulation at 300 poses, a
@@ -106,6 +126,8 @@ enum class SchurUpdate {
 
 class PoseSchurFactor {
  public:
+  using Matrix63 = Eigen::Matrix<double, 6, 3>;
+
   explicit PoseSchurFactor(const PoseSchurOptions& options = PoseSchurOptions());
 
   // Adds a pose at state offset `pose_offset` with its 6x6 block (observations plus any
@@ -156,7 +178,7 @@ class PoseSchurFactor {
     int poses_synced = 0;
     bool unsynced = false;  // listed in unsynced_
     std::vector<int> poses;                                  // pose indices
-    std::vector<Eigen::Matrix<double, 6, 3>> couplings;      // I_pf per pose
+    std::vector<Matrix63> couplings;                         // I_pf per pose
   };
   // A new order of the factor's positions: from `first` on it changes.
   struct Plan {
@@ -223,9 +245,18 @@ class PoseSchurFactor {
   std::vector<Feature> features_;
   std::unordered_map<int, int> feature_of_offset_;
   int64_t num_couplings_ = 0;                   // pose-feature blocks in all
+  // The couplings again, pose by pose (pose index order, each pose's in feature order, so
+  // that sums over them run in the same order as feature by feature): the passes over all
+  // of them (CG's products with S, the right-hand side, the features' recovery) stream
+  // them from one array instead of hopping between the features' own.
+  std::vector<Matrix63, Eigen::aligned_allocator<Matrix63>> pose_couplings_;
+  std::vector<int> pose_coupling_features_;     // feature index of each
+  std::vector<int> pose_coupling_ends_;         // pose index -> end of its couplings
   std::vector<int> last_touched_;               // pose index -> update count
   int updates_ = 0;
-  Eigen::MatrixXd S_;      // pose index order, allocated with room to grow
+  // Pose index order, with room to grow; only the 6x6 blocks on and below the diagonal are
+  // kept (Sync writes no others).
+  Eigen::MatrixXd S_;
   Eigen::MatrixXd L_;      // order_ (positions), lower triangle
   Eigen::MatrixXd C_;      // trailing Schur complement of the window (window positions)
   Eigen::MatrixXf L_single_;  // float L: CG's preconditioner (allocated on first use)

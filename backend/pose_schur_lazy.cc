@@ -76,40 +76,48 @@ void PoseSchurFactor::Sync() {
   if (synced == k && unsynced_.empty()) return;
   Grow(6 * k);
   if (k > synced) {
-    S_.block(0, 6 * synced, 6 * k, 6 * (k - synced)).setZero();
-    S_.block(6 * synced, 0, 6 * (k - synced), 6 * synced).setZero();
+    S_.block(6 * synced, 0, 6 * (k - synced), 6 * k).setZero();
     for (int pose = synced; pose < k; ++pose) S_.block<6, 6>(6 * pose, 6 * pose) = pose_blocks_[pose];
+  }
+  // Pairs of poses that S has seen: F_synced^-1 - F^-1; pairs with a new pose: -F^-1.
+  const int count = static_cast<int>(unsynced_.size());
+  std::vector<Eigen::Matrix3d> M(count, Eigen::Matrix3d::Zero());
+  std::vector<std::vector<std::pair<int, int>>> seen_by(k);  // pose -> (unsynced_ slot, e)
+  for (int slot = 0; slot < count; ++slot) {
+    const Feature& feature = features_[unsynced_[slot]];
+    if (feature.poses_synced > 0) {
+      M[slot] = feature.F_inv_synced * (feature.F - feature.F_synced) * feature.F_inv;
+      M[slot] = 0.5 * (M[slot] + M[slot].transpose());
+    }
+    for (size_t e = 0; e < feature.poses.size(); ++e) {
+      seen_by[feature.poses[e]].emplace_back(slot, static_cast<int>(e));
+    }
+  }
+  // The blocks below the diagonal only (S_ keeps no others; a feature's poses are
+  // increasing), a pose's columns at a time: they stay in cache while every feature it saw
+  // adds to them (each block still sums its features in the order of unsynced_).
+  for (int pose = 0; pose < k; ++pose) {
+    for (const auto& [slot, j] : seen_by[pose]) {
+      const Feature& feature = features_[unsynced_[slot]];
+      const int a = feature.poses_synced, p = static_cast<int>(feature.poses.size());
+      const Eigen::Matrix<double, 3, 6> MBt = M[slot] * feature.couplings[j].transpose();
+      const Eigen::Matrix<double, 3, 6> FBt = feature.F_inv * feature.couplings[j].transpose();
+      for (int i = j; i < p; ++i) {
+        Eigen::Matrix<double, 6, 6> block;
+        if (i < a) {
+          block.noalias() = feature.couplings[i] * MBt;
+        } else {
+          block.noalias() = -feature.couplings[i] * FBt;
+        }
+        S_.block<6, 6>(6 * feature.poses[i], 6 * pose) += block;
+      }
+    }
   }
   for (const int index : unsynced_) {
     Feature& feature = features_[index];
-    // Pairs of poses that S has seen: F_synced^-1 - F^-1; pairs with a new pose: -F^-1.
-    const int a = feature.poses_synced, p = static_cast<int>(feature.poses.size());
-    Eigen::Matrix3d M = Eigen::Matrix3d::Zero();
-    if (a > 0) {
-      M = feature.F_inv_synced * (feature.F - feature.F_synced) * feature.F_inv;
-      M = 0.5 * (M + M.transpose());
-    }
-    std::vector<Eigen::Matrix<double, 3, 6>> MBt(p), FBt(p);
-    for (int j = 0; j < p; ++j) {
-      MBt[j] = M * feature.couplings[j].transpose();
-      FBt[j] = feature.F_inv * feature.couplings[j].transpose();
-    }
-    // The lower blocks, each mirrored (a feature's poses are distinct).
-    for (int i = 0; i < p; ++i) {
-      for (int j = 0; j <= i; ++j) {
-        Eigen::Matrix<double, 6, 6> block;
-        if (i < a && j < a) {
-          block.noalias() = feature.couplings[i] * MBt[j];
-        } else {
-          block.noalias() = -feature.couplings[i] * FBt[j];
-        }
-        S_.block<6, 6>(6 * feature.poses[i], 6 * feature.poses[j]) += block;
-        if (j < i) S_.block<6, 6>(6 * feature.poses[j], 6 * feature.poses[i]) += block.transpose();
-      }
-    }
     feature.F_synced = feature.F;
     feature.F_inv_synced = feature.F_inv;
-    feature.poses_synced = p;
+    feature.poses_synced = static_cast<int>(feature.poses.size());
     feature.unsynced = false;
   }
   unsynced_.clear();
@@ -126,7 +134,14 @@ bool PoseSchurFactor::PrepareLazyPreconditioner() {
   for (int pose = factored; pose < num_poses(); ++pose) {
     C.block<6, 6>(6 * (pose - factored), 6 * (pose - factored)) = pose_blocks_[pose];
   }
-  for (const Feature& feature : features_) {
+  // The features the lazy poses saw, in index order.
+  const int first_lazy = factored > 0 ? pose_coupling_ends_[factored - 1] : 0;
+  std::vector<int> seen(pose_coupling_features_.begin() + first_lazy,
+                        pose_coupling_features_.end());
+  std::sort(seen.begin(), seen.end());
+  seen.erase(std::unique(seen.begin(), seen.end()), seen.end());
+  for (const int index : seen) {
+    const Feature& feature = features_[index];
     const int p = static_cast<int>(feature.poses.size());
     // Poses are appended in order: the lazy poses' observations come last.
     for (int e = p - 1; e >= 0 && feature.poses[e] >= factored; --e) {
@@ -173,19 +188,27 @@ void PoseSchurFactor::ApplyPreconditioner(bool single, Eigen::VectorXd* z) const
 }
 
 void PoseSchurFactor::MultiplyS(const Eigen::VectorXd& x, Eigen::VectorXd* y) const {
+  // u_f = E_f x, then y = I_pp x - E^T F^-1 u, pose by pose.
+  Eigen::Matrix3Xd u = Eigen::Matrix3Xd::Zero(3, features_.size());
+  int e = 0;
+  for (int pose = 0; pose < num_poses(); ++pose) {
+    const auto x_pose = x.segment<6>(6 * position_[pose]);
+    for (const int end = pose_coupling_ends_[pose]; e < end; ++e) {
+      u.col(pose_coupling_features_[e]).noalias() += pose_couplings_[e].transpose() * x_pose;
+    }
+  }
+  for (size_t f = 0; f < features_.size(); ++f) {
+    const Eigen::Vector3d v = features_[f].F_inv * u.col(f);
+    u.col(f) = v;
+  }
   y->resize(dim());
+  e = 0;
   for (int pose = 0; pose < num_poses(); ++pose) {
     const int row = 6 * position_[pose];
-    y->segment<6>(row).noalias() = pose_blocks_[pose] * x.segment<6>(row);
-  }
-  for (const Feature& feature : features_) {
-    Eigen::Vector3d u = Eigen::Vector3d::Zero();
-    for (size_t e = 0; e < feature.poses.size(); ++e) {
-      u.noalias() += feature.couplings[e].transpose() * x.segment<6>(6 * position_[feature.poses[e]]);
-    }
-    const Eigen::Vector3d v = feature.F_inv * u;
-    for (size_t e = 0; e < feature.poses.size(); ++e) {
-      y->segment<6>(6 * position_[feature.poses[e]]).noalias() -= feature.couplings[e] * v;
+    auto y_pose = y->segment<6>(row);
+    y_pose.noalias() = pose_blocks_[pose] * x.segment<6>(row);
+    for (const int end = pose_coupling_ends_[pose]; e < end; ++e) {
+      y_pose.noalias() -= pose_couplings_[e] * u.col(pose_coupling_features_[e]);
     }
   }
 }
