@@ -71,8 +71,10 @@ FrameRegistration RegisterFrames(const ProcessedFrame& a, const ProcessedFrame& 
   for (const DescriptorMatch& m : out.matches) {
     points_a.push_back(a.points[m.train].p_c);
     points_b.push_back(b.points[m.query].p_c);
-    covariances_a.push_back(a.points[m.train].p_c_covariance);
-    covariances_b.push_back(b.points[m.query].p_c_covariance);
+    if (registration.use_point_covariances) {
+      covariances_a.push_back(a.points[m.train].p_c_covariance);
+      covariances_b.push_back(b.points[m.query].p_c_covariance);
+    }
     sigmas.push_back(std::sqrt(a.points[m.train].Q(2, 2) + b.points[m.query].Q(2, 2)));
   }
   RegistrationOptions options = registration;

@@ -1,6 +1,5 @@
 #include "selection/known_association_run.h"
 
-#include <chrono>
 #include <cmath>
 
 #include <glog/logging.h>
@@ -75,11 +74,9 @@ KnownAssociationMetrics RunKnownAssociation(const KnownAssociationInput& input,
   metrics.final_pose_error_m = metrics.pose_errors.back().error.head<3>().norm();
   if (count >= 3) metrics.ate_rmse_m = AlignedRmse(p_est, p_true);
   if (refine != nullptr && count >= 3) {
-    const auto start = std::chrono::steady_clock::now();
     const BundleAdjustmentResult ba = SolveBundleAdjustment(
         MakeProblemFromFilter(filter, selection.observations), input.camera, *refine);
-    metrics.seconds_ba =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    metrics.seconds_ba = ba.solve_time_s;
     std::vector<Eigen::Vector3d> p_refined;
     for (const PoseErrorRecord& record : metrics.pose_errors) {
       p_refined.push_back(ba.T_w_c.at(record.frame).translation());
