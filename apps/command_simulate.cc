@@ -23,7 +23,7 @@ struct TableRow {
   int buffer = 0;
   double frames_total = 0, frames_used = 0, state_dim = 0, seconds = 0, final_pose_error_m = 0,
          ate_rmse_m = 0, mean_nees = 0, within_2sigma = 0, refined_ate_rmse_m = 0,
-         refined_not_worse = 0, seconds_ba = 0;
+         refined_not_worse = 0, seconds_ba = 0, seconds_selection = 0, seconds_filter = 0;
   std::pair<double, double> nees_band;
 };
 
@@ -32,6 +32,8 @@ void Accumulate(const KnownAssociationMetrics& m, double weight, TableRow* row) 
   row->frames_used += weight * m.frames_used;
   row->state_dim += weight * m.state_dim;
   row->seconds += weight * m.seconds;
+  row->seconds_selection += weight * m.seconds_selection;
+  row->seconds_filter += weight * m.seconds_filter;
   row->final_pose_error_m += weight * m.final_pose_error_m;
   row->ate_rmse_m += weight * m.ate_rmse_m;
   row->mean_nees += weight * m.mean_nees;
@@ -49,6 +51,8 @@ Json RowToJson(const TableRow& row) {
       .Set("frames_used", row.frames_used)
       .Set("state_dim", row.state_dim)
       .Set("seconds", row.seconds)
+      .Set("seconds_selection", row.seconds_selection)
+      .Set("seconds_filter", row.seconds_filter)
       .Set("final_pose_error_m", row.final_pose_error_m)
       .Set("ate_rmse_m", row.ate_rmse_m)
       .Set("mean_nees", row.mean_nees)

@@ -59,8 +59,10 @@ double InformationFilter::InformationGain(const Vector6d& T_w_c_candidate,
                                           GainTerms* terms) const {
   ValidateObservations(-1, observations);
   const int num_known = static_cast<int>(observations.size()) - CountNewFeatures(observations);
-  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(3 * num_known, 3 * num_known);
-  Eigen::MatrixXd B = Eigen::MatrixXd::Zero(3 * num_known, 6);
+  // Per known feature s: G_s with A_s = J_f^T W J_f = G_s G_s^T, and Bt_s = G_s^-1 B_s.
+  std::vector<Eigen::Matrix3d> G;
+  G.reserve(num_known);
+  Eigen::MatrixXd Bt(3 * num_known, 6);
   Matrix6d C = Matrix6d::Zero();
   std::vector<int> in_known;  // block of each of S in known.covariance
   double new_features_term = 0.0;
@@ -93,8 +95,10 @@ double InformationFilter::InformationGain(const Vector6d& T_w_c_candidate,
         << "feature " << obs.feature_id << " is missing from the FeatureCovariance";
     const int s = static_cast<int>(in_known.size());
     in_known.push_back(it->second);
-    A.block<3, 3>(3 * s, 3 * s) = J_f.transpose() * W * J_f;
-    B.middleRows<3>(3 * s) = J_f.transpose() * W * J_p;
+    const Eigen::LLT<Eigen::Matrix3d> A_s(J_f.transpose() * W * J_f);
+    CHECK(A_s.info() == Eigen::Success) << "a known feature's information is not positive definite";
+    G.push_back(A_s.matrixL());
+    Bt.middleRows<3>(3 * s) = A_s.matrixL().solve(J_f.transpose() * W * J_p);
     C += J_p.transpose() * W * J_p;
   }
   CHECK(num_new_features_to_count < 0 || num_counted == num_new_features_to_count)
@@ -104,40 +108,28 @@ double InformationFilter::InformationGain(const Vector6d& T_w_c_candidate,
   const double log_det_C = LogDetSpd(C);
   if (!std::isfinite(log_det_C)) return -std::numeric_limits<double>::infinity();
 
-  Eigen::MatrixXd P_SS(3 * num_known, 3 * num_known);
-  for (int r = 0; r < num_known; ++r) {
-    for (int c = 0; c < num_known; ++c) {
-      P_SS.block<3, 3>(3 * r, 3 * c) =
-          known.covariance.block<3, 3>(3 * in_known[r], 3 * in_known[c]);
+  // log det(I + P (A - B C^-1 B^T)) without n x n products. With A = G G^T (3x3 blocks) and
+  // Bt = G^-1 B, the matrix determinant lemma and Woodbury's identity give
+  //   det(I + P M) = det K * det(C - N) / det C,   K = I + G^T P G,
+  //   N = B^T (P^-1 + A)^-1 B = Bt^T (I - K^-1) Bt,
+  // and as each J_f is square and invertible, C = Bt^T Bt, so C - N = Bt^T K^-1 Bt = Y^T Y
+  // with Y = L_K^-1 Bt. K is formed block by block from P (lower half, all LLT reads): one
+  // n x n Cholesky and one 6-column triangular solve.
+  const int n = 3 * num_known;
+  Eigen::MatrixXd K(n, n);
+  for (int s = 0; s < num_known; ++s) {
+    for (int r = s; r < num_known; ++r) {
+      K.block<3, 3>(3 * r, 3 * s).noalias() =
+          G[r].transpose() *
+          known.covariance.block<3, 3>(3 * in_known[r], 3 * in_known[s]) * G[s];
     }
   }
-  // log det(I + P (A - B C^-1 B^T)) without n x n products: with A = G G^T (3x3 blocks, each
-  // feature's own information) and K = I + G^T P G,
-  //   det(I + P A) = det K,   (P^-1 + A)^-1 = P - P G K^-1 G^T P   (Woodbury),
-  // and the rank-6 rest by the determinant lemma:
-  //   det(I + P M) = det K * det(C - N) / det C,   N = B^T (P^-1 + A)^-1 B.
-  // One n x n Cholesky (K) and O(n^2) work besides.
-  Eigen::MatrixXd G = Eigen::MatrixXd::Zero(3 * num_known, 3 * num_known);
-  for (int s = 0; s < num_known; ++s) {
-    const Eigen::LLT<Eigen::Matrix3d> block(A.block<3, 3>(3 * s, 3 * s));
-    CHECK(block.info() == Eigen::Success) << "a known feature's information is not positive definite";
-    G.block<3, 3>(3 * s, 3 * s) = block.matrixL();
-  }
-  Eigen::MatrixXd PG = Eigen::MatrixXd::Zero(3 * num_known, 3 * num_known);
-  for (int s = 0; s < num_known; ++s) {
-    PG.middleCols<3>(3 * s) = P_SS.middleCols<3>(3 * s) * G.block<3, 3>(3 * s, 3 * s);
-  }
-  Eigen::MatrixXd K = Eigen::MatrixXd::Identity(3 * num_known, 3 * num_known);
-  for (int s = 0; s < num_known; ++s) {
-    K.middleRows<3>(3 * s) += G.block<3, 3>(3 * s, 3 * s).transpose() * PG.middleRows<3>(3 * s);
-  }
+  K.diagonal().array() += 1.0;
   const Eigen::LLT<Eigen::MatrixXd> K_llt(K);
   if (K_llt.info() != Eigen::Success) return -std::numeric_limits<double>::infinity();
   const double log_det_K = 2.0 * K_llt.matrixLLT().diagonal().array().log().sum();
-  const Eigen::MatrixXd PB = P_SS * B;
-  const Eigen::MatrixXd GtPB = PG.transpose() * B;  // G^T P B (P symmetric)
-  const Matrix6d N = B.transpose() * PB - GtPB.transpose() * K_llt.solve(GtPB);
-  const Matrix6d C_minus_N = 0.5 * ((C - N) + (C - N).transpose());
+  const Eigen::MatrixXd Y = K_llt.matrixL().solve(Bt);
+  const Matrix6d C_minus_N = Y.transpose() * Y;
   const double map_term = log_det_K + LogDetSpd(C_minus_N) - log_det_C;
   if (!std::isfinite(map_term)) return -std::numeric_limits<double>::infinity();
   if (terms != nullptr) *terms = {new_features_term, log_det_C, map_term};

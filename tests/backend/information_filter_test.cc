@@ -370,7 +370,7 @@ TEST_P(InformationFilterTest, FastGainEqualsLogDetOfTheExpandedMatrix) {
             dense.LogDetExpanded(candidates[c], observations[c], dense_count) -
             dense.LogDetInformation();
         EXPECT_NEAR(fast, expanded, 1e-6 * std::abs(expanded)) << "candidate " << c;
-        EXPECT_NEAR(fast, paper, 1e-6 * std::abs(paper)) << "candidate " << c;
+        EXPECT_NEAR(fast, paper, 1e-9 * std::abs(paper)) << "candidate " << c;
         EXPECT_GT(fast, 0.0);
       }
     }
