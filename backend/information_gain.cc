@@ -59,10 +59,12 @@ double InformationFilter::InformationGain(const Vector6d& T_w_c_candidate,
                                           GainTerms* terms) const {
   ValidateObservations(-1, observations);
   const int num_known = static_cast<int>(observations.size()) - CountNewFeatures(observations);
-  // Per known feature s: G_s with A_s = J_f^T W J_f = G_s G_s^T, and Bt_s = G_s^-1 B_s.
+  // Per known feature s: G_s with A_s = J_f^T W J_f = G_s G_s^T, and Bt_s = G_s^-1 B_s,
+  // stored transposed in the last 6 rows of the bordered matrix factored below.
+  const int n = 3 * num_known;
   std::vector<Eigen::Matrix3d> G;
   G.reserve(num_known);
-  Eigen::MatrixXd Bt(3 * num_known, 6);
+  Eigen::MatrixXd bordered(n + 6, n + 6);
   Matrix6d C = Matrix6d::Zero();
   std::vector<int> in_known;  // block of each of S in known.covariance
   double new_features_term = 0.0;
@@ -98,7 +100,8 @@ double InformationFilter::InformationGain(const Vector6d& T_w_c_candidate,
     const Eigen::LLT<Eigen::Matrix3d> A_s(J_f.transpose() * W * J_f);
     CHECK(A_s.info() == Eigen::Success) << "a known feature's information is not positive definite";
     G.push_back(A_s.matrixL());
-    Bt.middleRows<3>(3 * s) = A_s.matrixL().solve(J_f.transpose() * W * J_p);
+    bordered.block<6, 3>(n, 3 * s) =
+        A_s.matrixL().solve(J_f.transpose() * W * J_p).transpose();
     C += J_p.transpose() * W * J_p;
   }
   CHECK(num_new_features_to_count < 0 || num_counted == num_new_features_to_count)
@@ -113,23 +116,23 @@ double InformationFilter::InformationGain(const Vector6d& T_w_c_candidate,
   //   det(I + P M) = det K * det(C - N) / det C,   K = I + G^T P G,
   //   N = B^T (P^-1 + A)^-1 B = Bt^T (I - K^-1) Bt,
   // and as each J_f is square and invertible, C = Bt^T Bt, so C - N = Bt^T K^-1 Bt = Y^T Y
-  // with Y = L_K^-1 Bt. K is formed block by block from P (lower half, all LLT reads): one
-  // n x n Cholesky and one 6-column triangular solve.
-  const int n = 3 * num_known;
-  Eigen::MatrixXd K(n, n);
+  // with Y = L_K^-1 Bt. One Cholesky of the bordered matrix [K, Bt; Bt^T, 2C] gives both:
+  // its factor is [L_K, 0; Y^T, L_2], and 2C - Y^T Y >= C > 0 keeps it positive definite.
+  // K is formed block by block from P, lower half only (all LLT reads), and factored in place.
   for (int s = 0; s < num_known; ++s) {
     for (int r = s; r < num_known; ++r) {
-      K.block<3, 3>(3 * r, 3 * s).noalias() =
+      bordered.block<3, 3>(3 * r, 3 * s).noalias() =
           G[r].transpose() *
           known.covariance.block<3, 3>(3 * in_known[r], 3 * in_known[s]) * G[s];
     }
   }
-  K.diagonal().array() += 1.0;
-  const Eigen::LLT<Eigen::MatrixXd> K_llt(K);
-  if (K_llt.info() != Eigen::Success) return -std::numeric_limits<double>::infinity();
-  const double log_det_K = 2.0 * K_llt.matrixLLT().diagonal().array().log().sum();
-  const Eigen::MatrixXd Y = K_llt.matrixL().solve(Bt);
-  const Matrix6d C_minus_N = Y.transpose() * Y;
+  bordered.diagonal().head(n).array() += 1.0;
+  bordered.bottomRightCorner<6, 6>() = 2.0 * C;
+  const Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>> llt(bordered);
+  if (llt.info() != Eigen::Success) return -std::numeric_limits<double>::infinity();
+  const double log_det_K = 2.0 * bordered.diagonal().head(n).array().log().sum();
+  const auto Y_transpose = bordered.bottomLeftCorner(6, n);
+  const Matrix6d C_minus_N = Y_transpose * Y_transpose.transpose();
   const double map_term = log_det_K + LogDetSpd(C_minus_N) - log_det_C;
   if (!std::isfinite(map_term)) return -std::numeric_limits<double>::infinity();
   if (terms != nullptr) *terms = {new_features_term, log_det_C, map_term};
