@@ -569,8 +569,8 @@ Eigen::MatrixXd PoseSchurFactor::InverseSubmatrix(const std::vector<int>& indice
   // The columns, sorted by that row, are solved in groups, each from its group's first row
   // down: the features a buffer sees were first seen at very different times when the path
   // loops, and this skips the zero tops (on the paper's simulation, buffer 3: 30-50% of the
-  // flops, 27% of the time). The products Z_a^T Z_b run over the rows where both can be
-  // nonzero.
+  // flops; the recovery took 0.25-0.27 s instead of 0.31). The products Z_a^T Z_b run over
+  // the rows where both can be nonzero.
   std::vector<int> sorted(k);
   for (int col = 0; col < k; ++col) sorted[col] = col;
   std::stable_sort(sorted.begin(), sorted.end(),
