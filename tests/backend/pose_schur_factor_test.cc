@@ -121,6 +121,31 @@ TEST(PoseSchurFactorTest, DeferredAdditionsThenRefactorAgree) {
   problem.ExpectAgreement(factor);
 }
 
+// Many variables at once (more than one group of columns in InverseSubmatrix), first seen
+// at very different times: every feature and a pose from each stretch, shuffled.
+TEST(PoseSchurFactorTest, InverseOfManyVariablesFirstSeenAtDifferentTimes) {
+  RandomProblem problem(7);
+  PoseSchurFactor factor({2, 3});
+  for (int k = 0; k < 40; ++k) ASSERT_TRUE(problem.AddPose(k, &factor, SchurUpdate::kExact));
+  std::vector<int> indices;
+  for (const auto& [feature, offset] : problem.offset_of) {
+    for (int c = 0; c < 3; ++c) indices.push_back(offset + c);
+  }
+  for (const int k : {0, 13, 26, 39}) {
+    for (int c = 0; c < 6; ++c) indices.push_back(problem.pose_offsets[k] + c);
+  }
+  std::shuffle(indices.begin(), indices.end(), problem.rng);
+  ASSERT_GT(indices.size(), 150u);
+  const int k = static_cast<int>(indices.size());
+  Eigen::MatrixXd unit = Eigen::MatrixXd::Zero(problem.dim, k);
+  for (int c = 0; c < k; ++c) unit(indices[c], c) = 1.0;
+  const Eigen::MatrixXd expected =
+      Eigen::LLT<Eigen::MatrixXd>(problem.I).solve(unit)(indices, Eigen::all);
+  const Eigen::MatrixXd inverse = factor.InverseSubmatrix(indices);
+  EXPECT_LT((inverse - expected).norm(), 1e-9 * expected.norm());
+  EXPECT_EQ(inverse, inverse.transpose());
+}
+
 // Lazy updates: the factor is a preconditioner between exact factorisations, and the state
 // comes from conjugate gradients warm-started at the previous solution. Through the
 // trajectory's returns (every pose re-observes features of poses long left) each solve
