@@ -115,10 +115,12 @@ double InformationFilter::InformationGain(const Vector6d& T_w_c_candidate,
   // Bt = G^-1 B, the matrix determinant lemma and Woodbury's identity give
   //   det(I + P M) = det K * det(C - N) / det C,   K = I + G^T P G,
   //   N = B^T (P^-1 + A)^-1 B = Bt^T (I - K^-1) Bt,
-  // and as each J_f is square and invertible, C = Bt^T Bt, so C - N = Bt^T K^-1 Bt = Y^T Y
+  // and as each J_f is square and invertible ((u, v, d) of a 3-D point: 3x3; A_s's Cholesky
+  // above checks it), C = Bt^T Bt, so C - N = Bt^T K^-1 Bt = Y^T Y
   // with Y = L_K^-1 Bt. One Cholesky of the bordered matrix [K, Bt; Bt^T, 2C] gives both:
   // its factor is [L_K, 0; Y^T, L_2], and 2C - Y^T Y >= C > 0 keeps it positive definite.
-  // K is formed block by block from P, lower half only (all LLT reads), and factored in place.
+  // K is formed block by block from P, lower half only (all LLT reads; the strict upper part
+  // of `bordered` is never written, so only its lower factor may be used), factored in place.
   for (int s = 0; s < num_known; ++s) {
     for (int r = s; r < num_known; ++r) {
       bordered.block<3, 3>(3 * r, 3 * s).noalias() =

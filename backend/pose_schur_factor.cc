@@ -536,7 +536,7 @@ Eigen::MatrixXd PoseSchurFactor::InverseSubmatrix(const std::vector<int>& indice
   const int n = dim(), k = static_cast<int>(indices.size());
   // Each wanted scalar as (feature index or -1, component), and its column of R, the
   // pose-space right-hand side: the inverse restricted to `indices` is R^T S^-1 R plus the
-  // features' own F^-1 blocks. first_row: the column's first nonzero row.
+  // features' own F^-1 blocks. first_row: the column's first row that may be nonzero.
   std::vector<std::pair<int, int>> feature_of(k, {-1, 0});
   std::vector<int> first_row(k, n);
   Eigen::MatrixXd R = Eigen::MatrixXd::Zero(n, k);
@@ -565,11 +565,11 @@ Eigen::MatrixXd PoseSchurFactor::InverseSubmatrix(const std::vector<int>& indice
     }
     CHECK(found) << "state index " << index << " is neither a pose nor a feature";
   }
-  // R^T S^-1 R = Z^T Z with Z = L^-1 R, and Z is zero above each column's first nonzero row.
+  // R^T S^-1 R = Z^T Z with Z = L^-1 R, and Z is zero above each column's first_row.
   // The columns, sorted by that row, are solved in groups, each from its group's first row
   // down: the features a buffer sees were first seen at very different times when the path
-  // loops, and this skips the zero tops (on the paper's simulation, buffer 3: 30-50% of the
-  // flops; the recovery took 0.25-0.27 s instead of 0.31). The products Z_a^T Z_b run over
+  // loops, and skipping the zero tops saves work (on the paper's simulation, buffer 3: the
+  // single solve did 30-50% more flops; the recovery took 0.25-0.27 s instead of 0.31). The products Z_a^T Z_b run over
   // the rows where both can be nonzero.
   std::vector<int> sorted(k);
   for (int col = 0; col < k; ++col) sorted[col] = col;
