@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 
 #include "backend/evaluation.h"
@@ -31,6 +32,23 @@ Json BaOptionsToJson(const BundleAdjustmentOptions& options) {
       .Set("max_iterations", options.max_iterations);
 }
 
+namespace {
+
+// Keyed by component: u and v in pixels' sigmas, d in the range's.
+Json ResidualCheckToJson(const BundleAdjustmentResult::ResidualCheck& check) {
+  const auto by_component = [](const Eigen::Vector3d& v) {
+    return Json::Object().Set("u", v[0]).Set("v", v[1]).Set("d", v[2]);
+  };
+  return Json::Object()
+      .Set("observations", check.observations)
+      .Set("rms", by_component(check.rms))
+      .Set("robust_sigma", by_component(check.robust_sigma))
+      .Set("redundancy", check.redundancy)
+      .Set("expected_robust_sigma", std::sqrt(std::max(0.0, check.redundancy)));
+}
+
+}  // namespace
+
 RefinementOutcome RefineToFiles(const StoredBaProblem& stored, const SlamEstimate& filter_estimate,
                                 const BundleAdjustmentOptions& options, const std::string& out,
                                 const std::string& gt_path) {
@@ -50,17 +68,17 @@ RefinementOutcome RefineToFiles(const StoredBaProblem& stored, const SlamEstimat
   if (!gt_path.empty()) outcome.ate_refined_m = AteOfFiles(gt_path, JoinPath(out, "refined.tum"));
   outcome.comparison = ComparisonToJson(
       CompareFilterToSmoother(filter_estimate, SmootherEstimate(refined)), true);
-  outcome.comparison.Set("ba", Json::Object()
-                                   .Set("initial_cost", refined.initial_cost)
-                                   .Set("final_cost", refined.final_cost)
-                                   .Set("iterations", refined.iterations)
-                                   .Set("residuals", refined.num_residuals)
-                                   .Set("rejected_observations",
-                                        static_cast<int>(refined.rejected.size()))
-                                   .Set("rejection_variance_factor",
-                                        refined.rejection_variance_factor)
-                                   .Set("termination", refined.termination)
-                                   .Set("seconds", refined.solve_time_s));
+  const Json solver = Json::Object()
+                          .Set("initial_cost", refined.initial_cost)
+                          .Set("final_cost", refined.final_cost)
+                          .Set("iterations", refined.iterations)
+                          .Set("residuals", refined.num_residuals)
+                          .Set("rejected_observations", static_cast<int>(refined.rejected.size()))
+                          .Set("rejection_variance_factor", refined.rejection_variance_factor)
+                          .Set("residual_check", ResidualCheckToJson(refined.residual_check))
+                          .Set("termination", refined.termination)
+                          .Set("seconds", refined.solve_time_s);
+  outcome.comparison.Set("ba", solver);
   return outcome;
 }
 

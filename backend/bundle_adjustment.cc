@@ -140,6 +140,45 @@ void ComputePoseCovariances(ceres::Problem* ceres_problem, Parameters* params, i
   }
 }
 
+// Each observation's error at the result's poses and points, per component in units of
+// sqrt(Q_ii) (BundleAdjustmentResult::ResidualCheck; the redundancy is the caller's).
+BundleAdjustmentResult::ResidualCheck CheckResiduals(const BundleAdjustmentProblem& problem,
+                                                     const PinholeCamera& camera,
+                                                     double min_depth_m,
+                                                     const BundleAdjustmentResult& result) {
+  std::vector<Eigen::Vector3d> standardized;
+  standardized.reserve(problem.observations.size());
+  for (const BundleAdjustmentObservation& obs : problem.observations) {
+    const FeatureObservation& o = obs.observation;
+    const Eigen::Isometry3d& T_w_c = result.T_w_c.at(obs.frame_id);
+    const Eigen::Quaterniond q_w_c(T_w_c.linear());
+    const Eigen::Vector3d t_w_c = T_w_c.translation();
+    const Eigen::Vector3d& p_w = result.p_w.at(o.feature_id);
+    Eigen::Vector3d error;
+    const UvdResidual residual(camera, o.z, Eigen::Matrix3d::Identity(), min_depth_m);
+    if (!residual(q_w_c.coeffs().data(), t_w_c.data(), p_w.data(), error.data())) continue;
+    standardized.push_back(error.cwiseQuotient(o.Q.diagonal().cwiseSqrt()));
+  }
+  BundleAdjustmentResult::ResidualCheck check;
+  check.observations = static_cast<int>(standardized.size());
+  if (standardized.empty()) return check;
+  const double n = static_cast<double>(standardized.size());
+  for (int axis = 0; axis < 3; ++axis) {
+    std::vector<double> magnitude;
+    magnitude.reserve(standardized.size());
+    double sum = 0.0;
+    for (const Eigen::Vector3d& e : standardized) {
+      magnitude.push_back(std::abs(e[axis]));
+      sum += e[axis] * e[axis];
+    }
+    check.rms[axis] = std::sqrt(sum / n);
+    const auto middle = magnitude.begin() + magnitude.size() / 2;
+    std::nth_element(magnitude.begin(), middle, magnitude.end());
+    check.robust_sigma[axis] = 1.4826 * *middle;  // the MAD of a zero-mean normal is 0.6745 sigma
+  }
+  return check;
+}
+
 }  // namespace
 
 std::string BaRobustLossName(BaRobustLoss loss) {
@@ -377,6 +416,14 @@ BundleAdjustmentResult SolveBundleAdjustment(const BundleAdjustmentProblem& prob
   result.poses[anchor_id] = IsometryToPose(problem.T_w_c.at(anchor_id));
   for (const auto& [feature_id, offset] : params.feature_offsets()) {
     result.p_w[feature_id] = params.Feature(feature_id);
+  }
+  result.residual_check = CheckResiduals(problem, camera, options.min_depth_m, result);
+  const int free_parameters =
+      6 * static_cast<int>(frame_uses.size() - frame_uses.count(anchor_id)) +
+      3 * static_cast<int>(feature_uses.size());
+  if (result.num_residuals > 0) {
+    result.residual_check.redundancy =
+        static_cast<double>(result.num_residuals - free_parameters) / result.num_residuals;
   }
   result.solve_time_s = SecondsSince(start);
 

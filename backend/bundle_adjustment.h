@@ -115,6 +115,22 @@ struct BundleAdjustmentResult {
   std::vector<BundleAdjustmentObservation> rejected;
   double rejection_variance_factor = 1.0;
 
+  // The noise model checked without ground truth: each observation's error h - z at the
+  // result, per component (u, v, d) in units of its own sigma sqrt(Q_ii), rejected ones
+  // included. A least-squares fit absorbs part of the noise, so with Q right robust_sigma
+  // comes out near sqrt(redundancy); well below it, Q overstates the noise; above it, or rms
+  // far above robust_sigma (heavy tails), the data hold more noise or wrong associations
+  // than Q allows.
+  struct ResidualCheck {
+    int observations = 0;  // evaluated (in front of their camera at the result)
+    Eigen::Vector3d rms = Eigen::Vector3d::Zero();
+    Eigen::Vector3d robust_sigma = Eigen::Vector3d::Zero();  // 1.4826 * median |e_i| / sigma_i
+    // (residuals - free parameters) / residuals of the last solve: the share of the noise
+    // the residuals keep, in variance.
+    double redundancy = 0.0;
+  };
+  ResidualCheck residual_check;
+
   double initial_cost = 0.0;  // Ceres' 1/2 sum |r|^2 (after the robust loss), first solve
   double final_cost = 0.0;    // of the last solve, over the observations kept
   int iterations = 0;         // summed over the solves

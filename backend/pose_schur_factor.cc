@@ -569,8 +569,8 @@ Eigen::MatrixXd PoseSchurFactor::InverseSubmatrix(const std::vector<int>& indice
   // The columns, sorted by that row, are solved in groups, each from its group's first row
   // down: the features a buffer sees were first seen at very different times when the path
   // loops, and skipping the zero tops saves work (on the paper's simulation, buffer 3: the
-  // single solve did 30-50% more flops; the recovery took 0.25-0.27 s instead of 0.31). The products Z_a^T Z_b run over
-  // the rows where both can be nonzero.
+  // single solve did 30-50% more flops; the recovery took 0.25-0.27 s instead of 0.31).
+  // The products Z_a^T Z_b run over the rows where both can be nonzero.
   std::vector<int> sorted(k);
   for (int col = 0; col < k; ++col) sorted[col] = col;
   std::stable_sort(sorted.begin(), sorted.end(),
@@ -584,7 +584,8 @@ Eigen::MatrixXd PoseSchurFactor::InverseSubmatrix(const std::vector<int>& indice
   std::vector<Group> groups;
   for (int start = 0; start < k; start += kGroupColumns) {
     Group group;
-    group.columns.assign(sorted.begin() + start, sorted.begin() + std::min(k, start + kGroupColumns));
+    const int end = std::min(k, start + kGroupColumns);
+    group.columns.assign(sorted.begin() + start, sorted.begin() + end);
     group.first = first_row[group.columns.front()];
     if (group.first >= n) continue;  // columns that are all zero add nothing
     group.Z = R(Eigen::seq(group.first, n - 1), group.columns);

@@ -223,6 +223,39 @@ TEST(BundleAdjustmentTest, NoisyProblemReachesTheChiSquareCostAndBeatsTheStart) 
   EXPECT_LT(mean_nees, 20.0);
 }
 
+// The residual check without ground truth: with Q right (the noise drawn from it), each
+// component's robust sigma comes out near sqrt(redundancy); with Q claiming twice the noise,
+// exactly half of that (the solution is the same, each error is measured in a doubled sigma).
+TEST(BundleAdjustmentTest, ResidualCheckMeasuresTheNoiseInQsUnits) {
+  std::mt19937 rng(8);
+  const TestScene scene = MakeTestScene(10, 100, &rng);
+  const BundleAdjustmentProblem problem = MakeTestProblem(scene, 0.03, 0.02, 0.05, true, &rng);
+  BundleAdjustmentOptions options;
+  options.rejection_chi2 = 0.0;
+  const BundleAdjustmentResult right = SolveBundleAdjustment(problem, scene.camera, options);
+  ASSERT_TRUE(right.usable) << right.termination;
+  const BundleAdjustmentResult::ResidualCheck& check = right.residual_check;
+  EXPECT_EQ(check.observations, static_cast<int>(problem.observations.size()));
+  const int free_parameters = 6 * (static_cast<int>(scene.poses.size()) - 1) +
+                              3 * static_cast<int>(scene.points.size());
+  EXPECT_NEAR(check.redundancy,
+              1.0 - static_cast<double>(free_parameters) / right.num_residuals, 1e-12);
+  const double expected = std::sqrt(check.redundancy);
+  for (int axis = 0; axis < 3; ++axis) {
+    EXPECT_NEAR(check.robust_sigma[axis], expected, 0.15 * expected) << "axis " << axis;
+    EXPECT_NEAR(check.rms[axis], expected, 0.15 * expected) << "axis " << axis;
+  }
+
+  BundleAdjustmentProblem overstated = problem;
+  for (BundleAdjustmentObservation& obs : overstated.observations) obs.observation.Q *= 4.0;
+  const BundleAdjustmentResult wide = SolveBundleAdjustment(overstated, scene.camera, options);
+  ASSERT_TRUE(wide.usable) << wide.termination;
+  for (int axis = 0; axis < 3; ++axis) {
+    EXPECT_NEAR(wide.residual_check.robust_sigma[axis], 0.5 * check.robust_sigma[axis],
+                1e-4 * check.robust_sigma[axis]) << "axis " << axis;
+  }
+}
+
 TEST(BundleAdjustmentTest, HuberResistsGrossOutliers) {
   std::mt19937 rng(6);
   const TestScene scene = MakeTestScene(8, 80, &rng);
