@@ -457,6 +457,9 @@ TEST_P(InformationFilterTest, InPlaceUpdatesAndOrderingDoNotChangeTheResult) {
 // matter of speed only: through a trajectory that comes back over its start (a loop
 // closure: the last poses re-observe the first poses' features), every state agrees with
 // refactoring at every update, and the state, log det and covariances with the dense filter.
+// With cg_tolerance at double precision's floor (1e-10) to 1e-9 absolute; with the default,
+// the error's Mahalanobis norm (under the dense information matrix) stays below the
+// tolerance, i.e. each component within that many of its standard deviations.
 TEST(InformationFilterLazyTest, AgreesWithRefactoringEveryUpdateThroughALoopClosure) {
   std::mt19937 rng(31);
   Scene scene = MakeScene(12, 90, &rng);
@@ -468,15 +471,19 @@ TEST(InformationFilterLazyTest, AgreesWithRefactoringEveryUpdateThroughALoopClos
     scene.poses.push_back(pose);
   }
   const int num_poses = static_cast<int>(scene.poses.size());
-  InformationFilterOptions lazy_options;
-  lazy_options.cg_flop_weight = 0.0;  // lazy whenever it may be
+  InformationFilterOptions default_options;
+  default_options.cg_flop_weight = 0.0;  // lazy whenever it may be
+  InformationFilterOptions lazy_options = default_options;
+  lazy_options.cg_tolerance = 1e-10;
   InformationFilterOptions exact_options;
   exact_options.iterative_recovery = false;
   InformationFilter lazy(lazy_options, scene.camera), exact(exact_options, scene.camera);
+  InformationFilter by_default(default_options, scene.camera);
   testing::DenseReferenceFilter dense(exact_options.anchor_information, scene.camera);
   const std::vector<FeatureObservation> first = Observe(scene, 0, true, &rng);
   lazy.AddFirstPose(scene.frame_ids[0], scene.poses[0], first);
   exact.AddFirstPose(scene.frame_ids[0], scene.poses[0], first);
+  by_default.AddFirstPose(scene.frame_ids[0], scene.poses[0], first);
   dense.AddFirstPose(scene.frame_ids[0], scene.poses[0], first);
   int iterative = 0;
   for (int i = 1; i < num_poses; ++i) {
@@ -484,10 +491,21 @@ TEST(InformationFilterLazyTest, AgreesWithRefactoringEveryUpdateThroughALoopClos
     const Vector6d initial = Perturb(scene.poses[i], 0.02, 0.01, &rng);
     lazy.AddPose(scene.frame_ids[i], initial, observations);
     exact.AddPose(scene.frame_ids[i], initial, observations);
+    by_default.AddPose(scene.frame_ids[i], initial, observations);
     dense.AddPose(scene.frame_ids[i], initial, observations);
     iterative += lazy.last_timings().cg_iterations > 0 ? 1 : 0;
     EXPECT_EQ(exact.last_timings().cg_iterations, 0);
     EXPECT_LT((lazy.state() - exact.state()).norm(), 1e-9) << "pose " << i;
+    // The default's error, laid out as the dense filter's state.
+    Eigen::VectorXd error(dense.state_dim());
+    for (int id : exact.frame_ids()) {
+      error.segment<6>(dense.PoseIndex(id)) = by_default.pose(id) - exact.pose(id);
+    }
+    for (int64_t id : exact.feature_ids()) {
+      error.segment<3>(dense.FeatureIndex(id)) = by_default.feature(id) - exact.feature(id);
+    }
+    EXPECT_LT(std::sqrt(error.dot(dense.information() * error)), default_options.cg_tolerance)
+        << "pose " << i;
   }
   EXPECT_GT(iterative, num_poses / 3);  // the others: refactoring was as cheap
   for (int id : lazy.frame_ids()) {
