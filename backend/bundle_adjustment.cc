@@ -417,6 +417,8 @@ BundleAdjustmentResult SolveBundleAdjustment(const BundleAdjustmentProblem& prob
   for (const auto& [feature_id, offset] : params.feature_offsets()) {
     result.p_w[feature_id] = params.Feature(feature_id);
   }
+  result.solve_time_s = SecondsSince(start);
+  // A diagnostic after the solve, not part of its time.
   result.residual_check = CheckResiduals(problem, camera, options.min_depth_m, result);
   const int free_parameters =
       6 * static_cast<int>(frame_uses.size() - frame_uses.count(anchor_id)) +
@@ -425,7 +427,6 @@ BundleAdjustmentResult SolveBundleAdjustment(const BundleAdjustmentProblem& prob
     result.residual_check.redundancy =
         static_cast<double>(result.num_residuals - free_parameters) / result.num_residuals;
   }
-  result.solve_time_s = SecondsSince(start);
 
   std::set<int> observed_frames;
   for (const auto& [frame_id, uses] : frame_uses) observed_frames.insert(frame_id);
