@@ -188,10 +188,14 @@ bool PoseSchurFactor::AddPose(int pose_offset, const Eigen::Matrix<double, 6, 6>
       feature_of_offset_[obs.feature_offset] = index;
     } else {
       index = feature_of_offset_.at(obs.feature_offset);
-      Feature old = features_[index];
-      old.poses.clear();
-      old.couplings.clear();
-      saved.emplace_back(index, std::move(old));
+      // Its fixed-size fields only: the update appends to its lists, and undoing it pops
+      // them (copying them, hundreds of couplings, was most of a lazy update's bookkeeping).
+      Feature& current = features_[index];
+      std::vector<int> poses = std::move(current.poses);
+      std::vector<Matrix63> couplings = std::move(current.couplings);
+      saved.emplace_back(index, current);
+      current.poses = std::move(poses);
+      current.couplings = std::move(couplings);
     }
     feature_order.emplace_back(index, static_cast<int>(o));
     Feature& feature = features_[index];
