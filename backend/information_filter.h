@@ -57,12 +57,17 @@ struct InformationFilterOptions {
   // the cheaper, or when the solves have grown dearer by as much as a refactor costs
   // (backend/pose_schur_factor.h); false refactors on every update. CG stops when the
   // error's Mahalanobis norm is below cg_tolerance, so each state component is within
-  // cg_tolerance of its standard deviation of the exact solve. 1e-6 is six orders below the
-  // estimate's own uncertainty (and far below its linearisation error); 1e-10, double
-  // precision's floor for these problems, took ~7.1 CG iterations an update at state 7,389
-  // instead of ~4.5 (side by side, noisy: 19.5-19.9 ms against 16.8-17.9, then 18.0 against
-  // 17.7), and the all-frames simulation 1.58 s a run instead of 1.33. The tests check
-  // 1e-10 against the exact filter to 1e-9 absolute, and the default's bound.
+  // cg_tolerance of its standard deviation of the exact solve. Each solve is bounded on its
+  // own (warm-started, against the exact I and i), so the errors do not add up; they only
+  // move the next linearisation point, by a fraction of a standard deviation (linearising
+  // at the estimate instead of the truth moves it by about one). At 1e-3 that is far below
+  // the digits the filter's numbers are reported to: on the paper's simulation (all frames,
+  // seed 7, 3 runs) the mean NEES and the ATE agree with those at 1e-10 to 6 and 7
+  // significant digits; 1e-2, ten times looser, is where it first shows (NEES, 4th digit). CG iterations an
+  // update at state 7,389: ~7.1 at 1e-10, ~4.5 at 1e-6, ~2.8 at 1e-3; mean update time
+  // over 24 at 1e-3 against 1e-6, side by side on a noisy machine: 13.2-17.8 ms against
+  // 18.7-22.9. The tests check 1e-10 against the exact filter to 1e-9 absolute, and the
+  // default's bound.
   // Updates that follow a query stay exact (the selector queries once per added frame).
   // Measured (CPU time, noisy shared machine): the paper's all-frames simulation 3.8 s a run
   // instead of 11.5 s; an update at state 7,389 (300 poses) 34-41 ms on average over 24
@@ -71,7 +76,7 @@ struct InformationFilterOptions {
   // cg_flop_weight lowered to 2, 0.62-0.76 of that (18-26 ms against 28-35, side by side;
   // the all-frames simulation's run 2.0 s against 2.9).
   bool iterative_recovery = true;
-  double cg_tolerance = 1e-6;
+  double cg_tolerance = 1e-3;
   int cg_max_iterations = 60;
   // How many refactoring flops a CG flop costs, for the choice (PoseSchurOptions).
   double cg_flop_weight = 2.0;
