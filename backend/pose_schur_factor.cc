@@ -175,6 +175,7 @@ bool PoseSchurFactor::AddPose(int pose_offset, const Eigen::Matrix<double, 6, 6>
     synced_poses_ = k + 1;
   }
   std::vector<std::pair<int, Feature>> saved;  // re-observed features as they were
+  saved.reserve(observations.size());          // no reallocation between move-out and back
   const int old_features = static_cast<int>(features_.size());
   const size_t old_unsynced = unsynced_.size();
   std::vector<std::pair<int, int>> feature_order;  // (feature index, observation)
@@ -192,7 +193,7 @@ bool PoseSchurFactor::AddPose(int pose_offset, const Eigen::Matrix<double, 6, 6>
       // them (copying them, hundreds of couplings, was most of a lazy update's bookkeeping).
       Feature& current = features_[index];
       std::vector<int> poses = std::move(current.poses);
-      std::vector<Matrix63> couplings = std::move(current.couplings);
+      decltype(Feature::couplings) couplings = std::move(current.couplings);
       saved.emplace_back(index, current);
       current.poses = std::move(poses);
       current.couplings = std::move(couplings);

@@ -54,21 +54,21 @@
 // passed the check through C). Measured at 300 poses (the 7,275-dimensional benchmark):
 // 34-41 ms per update on average instead of 53-55, side by side on a noisy shared machine.
 //
-// Where the time goes now (timers on the same benchmark, 24 updates, cg_tolerance 1e-10,
-// ~7.1 CG iterations an update; at 1e-6, ~4.5, and the solves take ~7-8 ms of an update
-// against ~11, the renewals ~9.5 ms against ~8; at the filter's default of 1e-3, ~2.8):
-// ~60% in CG, each iteration ~0.6-0.9 ms for S x (two passes over ~30,000 couplings,
-// which are also kept pose by pose so that the passes stream them from one array; a copy
-// feature by feature, read once, made S x only ~8% faster: the small block products bound
-// it as much as memory) and ~0.5 ms for the two float triangular solves, bound by memory;
-// ~27% in a renewal every ~12
-// updates (~62 ms to factor in float, ~8-14 ms for Sync, which writes S's lower blocks a
-// pose's columns at a time). That is 0.62-0.76 of the mean update time before these
-// changes (couplings read feature by feature, S mirrored, a renewal's own change of S
-// formed apart, cg_flop_weight 5 and renewals every ~7 updates), side by side. Not used:
-// a tiled factorisation on two threads (same bits for any count), 1.5x faster alone on the
-// 2-vCPU machine when quiet, but no faster in the benchmark while others shared it, and
-// up to 1.5x slower under heavy load.
+// Where the time goes now (timers on the same benchmark, 24 updates; the shares are at
+// cg_tolerance 1e-10, ~7.1 CG iterations an update; at 1e-6, ~4.5, and the solves take
+// ~7-8 ms of an update against ~11, the renewals ~9.5 ms against ~8; at the filter's
+// default of 1e-3, ~2.8): ~60% in CG, each iteration ~0.6-0.9 ms for S x (two passes over
+// ~30,000 couplings, which are also kept pose by pose so that the passes stream them from
+// one array) and ~0.5 ms for the two float triangular solves, bound by memory; ~27%
+// in a renewal every ~12 updates (~62 ms to factor in float, ~8-14 ms for Sync, which
+// writes S's lower blocks a pose's columns at a time). That is 0.62-0.76 of the mean
+// update time before these changes (couplings read feature by feature, S mirrored, a
+// renewal's own change of S formed apart, cg_flop_weight 5 and renewals every ~7
+// updates), side by side. Not used: a tiled factorisation on two threads (same bits for
+// any count), 1.5x faster alone on the 2-vCPU machine when quiet, but no faster in the
+// benchmark while others shared it, and up to 1.5x slower under heavy load; a second copy
+// of the couplings, feature by feature in one array, so that S x reads each once: only
+// ~8% faster S x (the small block products bound it as much as memory).
 //
 // Memory is O(P^2) (S and L, 6P square, and L's float copy), so the filter uses it only up
 // to a pose dimension.
