@@ -190,7 +190,7 @@ bool PoseSchurFactor::AddPose(int pose_offset, const Eigen::Matrix<double, 6, 6>
     } else {
       index = feature_of_offset_.at(obs.feature_offset);
       // Its fixed-size fields only: the update appends to its lists, and undoing it pops
-      // them (copying them, hundreds of couplings, was most of a lazy update's bookkeeping).
+      // them (copying them, tens to hundreds of couplings a feature, was wasted work).
       Feature& current = features_[index];
       std::vector<int> poses = std::move(current.poses);
       decltype(Feature::couplings) couplings = std::move(current.couplings);
