@@ -63,13 +63,13 @@ struct InformationFilterOptions {
   // fraction of a standard deviation, a second-order effect that stays in I and i
   // (linearising at the estimate instead of the truth shifts them by about one). At 1e-3
   // that is far below the digits the filter's numbers are reported to: on the paper's
-  // simulation (all frames, seed 7, 3 runs) the mean NEES and the ATE agree with those at
-  // 1e-10 to 6 and 7 significant digits; 1e-2, ten times looser, is where it first shows
-  // (NEES, 4th digit). CG iterations an update at state 7,389: ~7.1 at 1e-10, ~4.5 at
-  // 1e-6, ~2.8 at 1e-3; mean update time over 24 at 1e-3 against 1e-6, eight pairs side
-  // by side on a noisy machine: median 16.8 ms against 24.3 (13.5-20.8 against 18.6-27.9).
-  // The tests check 1e-10 against the exact filter to 1e-9 absolute, and the default's
-  // bound.
+  // simulation (all frames, seed 7, 3 runs) the mean NEES agrees with that at 1e-10 to 5
+  // significant digits (6.0303) and the mean ATE to all 5 printed (2.3186 mm); 1e-2, ten
+  // times looser, is where it first shows (NEES 6.0308). CG iterations an update at state
+  // 7,389: ~7.1 at 1e-10, ~4.5 at 1e-6, ~2.8 at 1e-3; mean update time over 24 at 1e-3
+  // against 1e-6, eight pairs side by side on a noisy machine: median 16.8 ms against 24.3
+  // (13.5-20.8 against 18.6-27.9). The tests check 1e-10 against the exact filter to 1e-9
+  // absolute, and the default's bound.
   // Updates that follow a query stay exact (the selector queries once per added frame).
   // Measured (CPU time, noisy shared machine): the paper's all-frames simulation 3.8 s a run
   // instead of 11.5 s; an update at state 7,389 (300 poses) 34-41 ms on average over 24
