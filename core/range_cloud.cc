@@ -1,0 +1,144 @@
+#include "core/range_cloud.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include <Eigen/Eigenvalues>
+
+#include "core/error.h"
+
+namespace ieslam {
+
+bool RangeCloudOptions::Check(std::string* why) const {
+  std::string problem;
+  if (step < 1) {
+    problem = "step must be >= 1";
+  } else if (!(max_neighbour_depth_ratio > 0.0) || !std::isfinite(max_neighbour_depth_ratio)) {
+    problem = "max_neighbour_depth_ratio must be positive";
+  } else if (!(max_flatness_sigmas > 0.0) || !std::isfinite(max_flatness_sigmas)) {
+    problem = "max_flatness_sigmas must be positive";
+  } else if (!(max_incidence_deg > 0.0 && max_incidence_deg < 90.0)) {
+    problem = "max_incidence_deg must be in (0, 90)";
+  }
+  if (!problem.empty() && why != nullptr) *why = "range cloud: " + problem;
+  return problem.empty();
+}
+
+int RangeCloud::ValidCount() const {
+  int count = 0;
+  for (size_t i = 0; i < p_r.size(); ++i) count += Valid(static_cast<int>(i)) ? 1 : 0;
+  return count;
+}
+
+bool RangeCloud::Interpolate(const Eigen::Vector3d& p, double max_depth_ratio, Eigen::Vector3d* q_r,
+                             Eigen::Vector3d* normal_r, double* sigma) const {
+  if (!(p.z() > 0.0)) return false;
+  const Eigen::Vector2d cell = grid.Project(p);
+  const double fx = std::floor(cell.x()), fy = std::floor(cell.y());
+  if (!(fx >= 0.0 && fy >= 0.0 && fx + 1.0 < grid.width && fy + 1.0 < grid.height)) return false;
+  const int x = static_cast<int>(fx), y = static_cast<int>(fy);
+  const double ax = cell.x() - fx, ay = cell.y() - fy;
+  const int corner[4] = {y * grid.width + x, y * grid.width + x + 1, (y + 1) * grid.width + x,
+                         (y + 1) * grid.width + x + 1};
+  const double weight[4] = {(1 - ax) * (1 - ay), ax * (1 - ay), (1 - ax) * ay, ax * ay};
+  Eigen::Vector3d q = Eigen::Vector3d::Zero(), n = Eigen::Vector3d::Zero();
+  double s = 0.0, z_min = std::numeric_limits<double>::infinity(), z_max = 0.0;
+  for (int k = 0; k < 4; ++k) {
+    if (!Valid(corner[k])) return false;
+    const double z = p_r[corner[k]].z();
+    z_min = std::min(z_min, z);
+    z_max = std::max(z_max, z);
+    q += weight[k] * p_r[corner[k]].cast<double>();
+    n += weight[k] * n_r[corner[k]].cast<double>();
+    s += weight[k] * sigma_m[corner[k]];
+  }
+  // Normals that disagree (their mean shorter than cos 18 deg) straddle a crease, where the
+  // bilinear patch is a bevel that is neither surface.
+  if (z_max - z_min > max_depth_ratio * z_min || !(n.norm() > 0.95)) return false;
+  *q_r = q;
+  *normal_r = n.normalized();
+  *sigma = s;
+  return true;
+}
+
+RangeCloud MakeRangeCloud(const cv::Mat& depth, const RangeImager& range,
+                          const Eigen::Isometry3d& T_colour_range, const RangeCloudOptions& options,
+                          const std::string& what) {
+  std::string why;
+  if (!options.Check(&why)) throw ConfigError(why);
+  if (depth.type() != CV_32FC1 || depth.cols != range.camera.width ||
+      depth.rows != range.camera.height) {
+    throw DataError(what + ": range image is " + std::to_string(depth.cols) + "x" +
+                    std::to_string(depth.rows) + ", expected " +
+                    std::to_string(range.camera.width) + "x" + std::to_string(range.camera.height) +
+                    " metres (CV_32FC1)");
+  }
+  const int step = options.step;
+  RangeCloud cloud;
+  cloud.T_colour_range = T_colour_range;
+  cloud.grid = range.camera;
+  cloud.grid.width = (range.camera.width + step - 1) / step;
+  cloud.grid.height = (range.camera.height + step - 1) / step;
+  cloud.grid.fx /= step;
+  cloud.grid.fy /= step;
+  cloud.grid.cx /= step;
+  cloud.grid.cy /= step;
+  const size_t cells = static_cast<size_t>(cloud.grid.width) * cloud.grid.height;
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  cloud.p_r.assign(cells, Eigen::Vector3f::Constant(nan));
+  cloud.n_r.assign(cells, Eigen::Vector3f::Constant(nan));
+  cloud.sigma_m.assign(cells, nan);
+
+  const int radius = step, stride = std::max(1, step / 2);
+  const int window = (2 * (radius / stride) + 1) * (2 * (radius / stride) + 1);
+  const double min_cos_incidence = std::cos(options.max_incidence_deg * M_PI / 180.0);
+  // The point at a pixel, or nothing when its range is invalid or too far from `z0`'s.
+  auto point_at = [&](int x, int y, double z0, Eigen::Vector3d* p) {
+    if (x < 0 || y < 0 || x >= depth.cols || y >= depth.rows) return false;
+    const float value = depth.at<float>(y, x);
+    if (!(value > 0.0f) || !std::isfinite(value)) return false;
+    *p = range.PixelToPoint(Eigen::Vector2d(x, y), value);
+    return z0 <= 0.0 || std::abs(p->z() - z0) <= options.max_neighbour_depth_ratio * z0;
+  };
+  for (int gy = 0; gy < cloud.grid.height; ++gy) {
+    for (int gx = 0; gx < cloud.grid.width; ++gx) {
+      const int x = gx * step, y = gy * step;
+      Eigen::Vector3d p;
+      if (!point_at(x, y, 0.0, &p)) continue;
+      // The window's plane: centroid and scatter about it (relative to p, for precision).
+      Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+      Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
+      int count = 0;
+      for (int dy = -radius; dy <= radius; dy += stride) {
+        for (int dx = -radius; dx <= radius; dx += stride) {
+          Eigen::Vector3d q;
+          if (!point_at(x + dx, y + dy, p.z(), &q)) continue;
+          const Eigen::Vector3d d = q - p;
+          sum += d;
+          scatter.noalias() += d * d.transpose();
+          ++count;
+        }
+      }
+      if (3 * count < 2 * window) continue;
+      const Eigen::Vector3d mean = sum / count;
+      const Eigen::Matrix3d covariance = scatter / count - mean * mean.transpose();
+      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen;
+      eigen.computeDirect(covariance);
+      const double sigma = range.noise.Sigma(p.norm());
+      const double off_plane = std::sqrt(std::max(0.0, eigen.eigenvalues()[0]));
+      if (off_plane > options.max_flatness_sigmas * sigma) continue;
+      Eigen::Vector3d n = eigen.eigenvectors().col(0).normalized();
+      const Eigen::Vector3d ray = p.normalized();
+      if (n.dot(ray) > 0.0) n = -n;
+      if (-n.dot(ray) < min_cos_incidence) continue;
+      const size_t cell = static_cast<size_t>(gy) * cloud.grid.width + gx;
+      cloud.p_r[cell] = p.cast<float>();
+      cloud.n_r[cell] = n.cast<float>();
+      cloud.sigma_m[cell] = static_cast<float>(sigma);
+    }
+  }
+  return cloud;
+}
+
+}  // namespace ieslam

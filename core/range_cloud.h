@@ -1,0 +1,74 @@
+// A range image reduced to what dense alignment needs: an organised grid of 3-D points with
+// surface normals and range noise, every `step`-th range pixel in each direction.
+//
+// The grid keeps the range imager's pixel layout (a pinhole with the intrinsics divided by
+// the step), so a point from another view is associated with this cloud by projecting it
+// into the grid (projective data association, as KinectFusion does) instead of searching a
+// tree. Points are in the range imager's frame; T_colour_range places them in the colour
+// camera's, whose poses the estimators hold.
+#pragma once
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <opencv2/core.hpp>
+
+#include "core/camera.h"
+
+namespace ieslam {
+
+struct RangeCloudOptions {
+  int step = 4;  // range pixels between grid points, in each direction
+  // A grid point's normal is the least-squares plane through the range points within `step`
+  // pixels of it (every step / 2-th pixel: 25 points), as Open3D and PCL estimate normals;
+  // a difference of two neighbours instead is noisy (at 1 m, a Kinect's 2 mm of range noise
+  // over 7 mm between pixels 4 apart tilts it by ~20 deg) and blends two planes at a crease.
+  // Neighbours whose depth differs from the point's by more than max_neighbour_depth_ratio
+  // of it are the other side of a depth edge and are not used: 0.05 across 4 px at 585 px
+  // focal length is a surface seen 86 deg from face-on, which is not resolved anyway. A
+  // point needs two thirds of its window on its own surface.
+  double max_neighbour_depth_ratio = 0.05;
+  // ... and its window flat within this many range sigmas (the RMS distance of the window's
+  // points from their plane): at a crease or a small object the plane and its normal are
+  // not the surface's.
+  double max_flatness_sigmas = 3.0;
+  // Points on surfaces seen more obliquely than this (angle between the ray and the
+  // normal) are left out: their range noise is much larger than sigma_d and their normal
+  // poorly defined.
+  double max_incidence_deg = 75.0;
+
+  bool Check(std::string* why) const;
+};
+
+struct RangeCloud {
+  PinholeCamera
+      grid;  // the range imager's pinhole on the grid: cell (i, j) is pixel (i step, j step)
+  Eigen::Isometry3d T_colour_range = Eigen::Isometry3d::Identity();
+  // Row-major, grid.width * grid.height; a point without a valid normal is NaN.
+  std::vector<Eigen::Vector3f> p_r;
+  std::vector<Eigen::Vector3f> n_r;  // unit normals, facing the camera
+  std::vector<float> sigma_m;        // the range noise sigma_d at the point's range
+
+  bool Valid(int index) const { return std::isfinite(p_r[index].x()); }
+  int ValidCount() const;
+  // The surface where a point in the range imager's frame projects: the point, normal and
+  // range sigma interpolated bilinearly between the four grid points around its projection,
+  // so that they move continuously with it (nearest-cell association jumps by a grid cell
+  // and keeps an alignment from converging). False when one of the four is invalid or they
+  // lie on different surfaces: depths more than max_depth_ratio apart (an edge) or normals
+  // that disagree (a crease).
+  bool Interpolate(const Eigen::Vector3d& p_r, double max_depth_ratio, Eigen::Vector3d* q_r,
+                   Eigen::Vector3d* normal_r, double* sigma) const;
+};
+
+// The cloud of a range image (CV_32FC1 metres in the range imager's grid, 0 = no
+// measurement, as Frame::depth). Throws DataError naming `what` when the image's size does
+// not match the imager's.
+RangeCloud MakeRangeCloud(const cv::Mat& depth, const RangeImager& range,
+                          const Eigen::Isometry3d& T_colour_range, const RangeCloudOptions& options,
+                          const std::string& what);
+
+}  // namespace ieslam

@@ -1,0 +1,144 @@
+#include "core/range_cloud.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "core/error.h"
+
+namespace ieslam {
+namespace {
+
+RangeImager Kinect() {
+  RangeImager range;
+  range.camera.width = 640;
+  range.camera.height = 480;
+  range.camera.fx = range.camera.fy = 585.0;
+  range.camera.cx = 320.0;
+  range.camera.cy = 240.0;
+  range.noise = {0.0002, 0.0, 0.0016};
+  return range;
+}
+
+// Depth (z) of the plane n . p = offset seen through each pixel; 0 where it is behind.
+cv::Mat PlaneDepth(const RangeImager& range, const Eigen::Vector3d& n, double offset) {
+  cv::Mat depth(range.camera.height, range.camera.width, CV_32FC1, cv::Scalar(0.0f));
+  for (int y = 0; y < depth.rows; ++y) {
+    for (int x = 0; x < depth.cols; ++x) {
+      const Eigen::Vector3d ray = range.camera.Unproject(Eigen::Vector2d(x, y));  // z = 1
+      const double z = offset / n.dot(ray);
+      if (z > 0.0) depth.at<float>(y, x) = static_cast<float>(z);
+    }
+  }
+  return depth;
+}
+
+TEST(RangeCloudTest, PlaneGivesItsPointsNormalsAndNoise) {
+  const RangeImager range = Kinect();
+  const Eigen::Vector3d n = Eigen::Vector3d(0.2, -0.1, -1.0).normalized();  // faces the camera
+  const double offset = -2.0;  // n . p = -2: about 2 m away
+  RangeCloudOptions options;
+  const RangeCloud cloud = MakeRangeCloud(PlaneDepth(range, n, offset), range,
+                                          Eigen::Isometry3d::Identity(), options, "plane");
+  EXPECT_EQ(cloud.grid.width, 160);
+  EXPECT_EQ(cloud.grid.height, 120);
+  EXPECT_DOUBLE_EQ(cloud.grid.fx, 585.0 / 4);
+  // Every grid point but those with more than a third of their 5 x 5 window off the image:
+  // the first row and column (10 of 25 off) and the last corner (9 of 25: pixel 640 and row
+  // 480 are off).
+  EXPECT_EQ(cloud.ValidCount(), 159 * 119 - 1);
+  EXPECT_FALSE(cloud.Valid(0));
+  for (int index = 0; index < static_cast<int>(cloud.p_r.size()); ++index) {
+    if (!cloud.Valid(index)) continue;
+    const Eigen::Vector3d p = cloud.p_r[index].cast<double>();
+    ASSERT_NEAR(n.dot(p), offset, 1e-5);
+    // Float depths (1e-7 relative) over a 7 mm baseline: normals to ~3e-5.
+    ASSERT_LT((cloud.n_r[index].cast<double>() - n).norm(), 1e-4);
+    ASSERT_NEAR(cloud.sigma_m[index], range.noise.Sigma(p.norm()), 1e-7);
+  }
+  // A grid point's cell maps back to its own range pixel.
+  const int index = 60 * cloud.grid.width + 80;
+  const Eigen::Vector2d pixel = range.camera.Project(cloud.p_r[index].cast<double>());
+  EXPECT_NEAR(pixel.x(), 320.0, 1e-3);
+  EXPECT_NEAR(pixel.y(), 240.0, 1e-3);
+}
+
+TEST(RangeCloudTest, InterpolationFollowsThePlaneBetweenGridPoints) {
+  const RangeImager range = Kinect();
+  const Eigen::Vector3d n = Eigen::Vector3d(0.3, 0.2, -1.0).normalized();
+  const RangeCloud cloud =
+      MakeRangeCloud(PlaneDepth(range, n, -1.5), range, Eigen::Isometry3d::Identity(),
+                     RangeCloudOptions(), "plane");
+  // Off-grid directions: the interpolated point lies on the plane (a plane is linear in the
+  // pixel grid's bilinear patches only approximately: within a micrometre at this size).
+  for (const Eigen::Vector2d& pixel :
+       {Eigen::Vector2d(101.3, 57.9), Eigen::Vector2d(400.5, 300.25)}) {
+    const Eigen::Vector3d ray = range.camera.Unproject(pixel);
+    const Eigen::Vector3d p = ray * (-1.5 / n.dot(ray)) + 0.01 * n;  // 1 cm in front of it
+    Eigen::Vector3d q, normal;
+    double sigma = 0.0;
+    ASSERT_TRUE(cloud.Interpolate(p, 0.05, &q, &normal, &sigma));
+    EXPECT_NEAR(n.dot(q), -1.5, 1e-6);
+    EXPECT_LT((normal - n).norm(), 1e-4);
+    EXPECT_NEAR(n.dot(p - q), 0.01, 1e-6);  // the point-to-plane distance
+    EXPECT_NEAR(sigma, range.noise.Sigma(q.norm()), 1e-4);
+  }
+  Eigen::Vector3d q, normal;
+  double sigma = 0.0;
+  EXPECT_FALSE(cloud.Interpolate(Eigen::Vector3d(0, 0, -1), 0.05, &q, &normal, &sigma));  // behind
+  EXPECT_FALSE(cloud.Interpolate(Eigen::Vector3d(10, 0, 1), 0.05, &q, &normal, &sigma));  // outside
+}
+
+TEST(RangeCloudTest, DepthEdgesInvalidPointsAndObliqueSurfacesAreLeftOut) {
+  const RangeImager range = Kinect();
+  cv::Mat depth(480, 640, CV_32FC1, cv::Scalar(2.0f));
+  depth.colRange(320, 640).setTo(1.0f);  // a step of 1 m at column 320
+  depth.at<float>(100, 100) = 0.0f;      // no measurement
+  depth.at<float>(200, 200) = std::numeric_limits<float>::quiet_NaN();
+  const RangeCloud cloud =
+      MakeRangeCloud(depth, range, Eigen::Isometry3d::Identity(), RangeCloudOptions(), "step");
+  const int w = cloud.grid.width;
+  EXPECT_TRUE(cloud.Valid(60 * w + 78));   // column 312: 8 px from the edge
+  EXPECT_FALSE(cloud.Valid(60 * w + 80));  // column 320: its left neighbour is 1 m away
+  EXPECT_TRUE(cloud.Valid(60 * w + 82));
+  EXPECT_FALSE(cloud.Valid(25 * w + 25));  // pixel (100, 100) itself
+  EXPECT_FALSE(cloud.Valid(50 * w + 50));  // pixel (200, 200)
+  Eigen::Vector3d q, normal;
+  double sigma = 0.0;
+  // Across the edge the four grid points lie on two surfaces.
+  EXPECT_FALSE(cloud.Interpolate(Eigen::Vector3d(-0.002, 0.0, 1.5), 0.05, &q, &normal, &sigma));
+
+  // A plane seen at 80 deg from face-on: beyond max_incidence_deg (75), left out entirely.
+  const Eigen::Vector3d oblique(std::sin(80.0 * M_PI / 180), 0.0, -std::cos(80.0 * M_PI / 180));
+  const RangeCloud grazing = MakeRangeCloud(PlaneDepth(range, oblique, -0.5), range,
+                                            Eigen::Isometry3d::Identity(), RangeCloudOptions(), "");
+  int near_axis = 0;
+  for (int gy = 50; gy < 70; ++gy) near_axis += grazing.Valid(gy * w + 80) ? 1 : 0;
+  EXPECT_EQ(near_axis, 0);
+}
+
+TEST(RangeCloudTest, WrongSizeOrBadOptionsAreErrors) {
+  const RangeImager range = Kinect();
+  try {
+    MakeRangeCloud(cv::Mat(240, 320, CV_32FC1, cv::Scalar(1.0f)), range,
+                   Eigen::Isometry3d::Identity(), RangeCloudOptions(), "frame 7");
+    FAIL() << "no error for a 320x240 range image";
+  } catch (const DataError& e) {
+    EXPECT_NE(std::string(e.what()).find("frame 7"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("320x240"), std::string::npos) << e.what();
+  }
+  RangeCloudOptions bad;
+  bad.step = 0;
+  std::string why;
+  EXPECT_FALSE(bad.Check(&why));
+  EXPECT_NE(why.find("step"), std::string::npos);
+  bad = RangeCloudOptions();
+  bad.max_incidence_deg = 90.0;
+  EXPECT_FALSE(bad.Check(&why));
+  EXPECT_THROW(MakeRangeCloud(cv::Mat(480, 640, CV_32FC1, cv::Scalar(1.0f)), range,
+                              Eigen::Isometry3d::Identity(), bad, "frame 7"),
+               ConfigError);
+}
+
+}  // namespace
+}  // namespace ieslam
