@@ -11,11 +11,13 @@
 #include <string>
 
 #include <ceres/autodiff_cost_function.h>
+#include <ceres/rotation.h>
 #include <Eigen/Cholesky>
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
 #include "core/camera.h"
+#include "core/pose.h"
 
 namespace ieslam {
 
@@ -79,6 +81,63 @@ class UvdResidual {
   Eigen::Vector3d z_;
   Eigen::Matrix3d W_;
   double min_depth_m_;
+};
+
+// r = S (Log(R_E), t_E) for E = Y T_sj_si^-1 and Y = (T_w_cj T_c_s)^-1 T_w_ci T_c_s, the
+// residual of a RelativePoseConstraint (backend/bundle_adjustment.h): zero where the poses
+// agree with the measured relative pose, and (omega, v) where they differ from it by
+// Y = [Exp(omega), v] T_sj_si, the chart the measurement's information S^T S is given in.
+class RelativePoseResidual {
+ public:
+  RelativePoseResidual(const Eigen::Isometry3d& T_sj_si, const Eigen::Isometry3d& T_c_s,
+                       const Matrix6d& sqrt_information)
+      : R_hat_(T_sj_si.linear()),
+        t_hat_(T_sj_si.translation()),
+        R_c_s_(T_c_s.linear()),
+        t_c_s_(T_c_s.translation()),
+        S_(sqrt_information) {}
+
+  template <typename T>
+  bool operator()(const T* q_w_ci_ptr, const T* t_w_ci_ptr, const T* q_w_cj_ptr,
+                  const T* t_w_cj_ptr, T* residual) const {
+    using Matrix3 = Eigen::Matrix<T, 3, 3>;
+    using Vector3 = Eigen::Matrix<T, 3, 1>;
+    const Matrix3 R_c_s = R_c_s_.cast<T>();
+    const Vector3 t_c_s = t_c_s_.cast<T>();
+    // The sensors' poses T_w_s = T_w_c T_c_s (rotation matrices: see UvdResidual).
+    const Matrix3 R_w_ci =
+        Eigen::Map<const Eigen::Quaternion<T>>(q_w_ci_ptr).normalized().toRotationMatrix();
+    const Matrix3 R_w_cj =
+        Eigen::Map<const Eigen::Quaternion<T>>(q_w_cj_ptr).normalized().toRotationMatrix();
+    const Matrix3 R_w_si = R_w_ci * R_c_s;
+    const Matrix3 R_w_sj = R_w_cj * R_c_s;
+    const Vector3 t_w_si = R_w_ci * t_c_s + Eigen::Map<const Vector3>(t_w_ci_ptr);
+    const Vector3 t_w_sj = R_w_cj * t_c_s + Eigen::Map<const Vector3>(t_w_cj_ptr);
+    const Matrix3 R_y = R_w_sj.transpose() * R_w_si;
+    const Vector3 t_y = R_w_sj.transpose() * (t_w_si - t_w_sj);
+    const Matrix3 R_e = R_y * R_hat_.transpose().cast<T>();
+    Eigen::Matrix<T, 6, 1> error;
+    ceres::RotationMatrixToAngleAxis(ceres::ColumnMajorAdapter3x3(R_e.data()), error.data());
+    error.template tail<3>() = t_y - R_e * t_hat_.cast<T>();
+    Eigen::Map<Eigen::Matrix<T, 6, 1>> r(residual);
+    r = S_.cast<T>() * error;
+    return true;
+  }
+
+  // Parameter blocks: q_w_ci (4), t_w_ci (3), q_w_cj (4), t_w_cj (3).
+  static ceres::CostFunction* Create(const Eigen::Isometry3d& T_sj_si,
+                                     const Eigen::Isometry3d& T_c_s,
+                                     const Matrix6d& sqrt_information) {
+    return new ceres::AutoDiffCostFunction<RelativePoseResidual, 6, 4, 3, 4, 3>(
+        new RelativePoseResidual(T_sj_si, T_c_s, sqrt_information));
+  }
+
+ private:
+  Eigen::Matrix3d R_hat_;
+  Eigen::Vector3d t_hat_;
+  Eigen::Matrix3d R_c_s_;
+  Eigen::Vector3d t_c_s_;
+  Matrix6d S_;
 };
 
 }  // namespace ieslam

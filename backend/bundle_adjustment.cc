@@ -309,6 +309,26 @@ BundleAdjustmentResult SolveBundleAdjustment(const BundleAdjustmentProblem& prob
     if (frame_uses[obs.frame_id]++ == 0) ceres_problem.SetManifold(q, &quaternion_manifold);
     ++feature_uses[o.feature_id];
   }
+  for (const RelativePoseConstraint& c : problem.relative_poses) {
+    const std::string name = "bundle adjustment: relative pose of frames " +
+                             std::to_string(c.frame_i) + " and " + std::to_string(c.frame_j);
+    if (!params.HasPose(c.frame_i) || !params.HasPose(c.frame_j) || c.frame_i == c.frame_j) {
+      throw DataError(name + ": unknown or repeated frame");
+    }
+    if (!c.sqrt_information.allFinite() || !c.T_sj_si.matrix().allFinite() ||
+        !c.T_c_s.matrix().allFinite()) {
+      throw DataError(name + ": not finite");
+    }
+    ceres_problem.AddResidualBlock(
+        RelativePoseResidual::Create(c.T_sj_si, c.T_c_s, c.sqrt_information), nullptr,
+        params.q_w_c(c.frame_i), params.t_w_c(c.frame_i), params.q_w_c(c.frame_j),
+        params.t_w_c(c.frame_j));
+    for (const int frame_id : {c.frame_i, c.frame_j}) {
+      if (frame_uses[frame_id]++ == 0) {
+        ceres_problem.SetManifold(params.q_w_c(frame_id), &quaternion_manifold);
+      }
+    }
+  }
   if (frame_uses.count(anchor_id) > 0) {
     ceres_problem.SetParameterBlockConstant(params.q_w_c(anchor_id));
     ceres_problem.SetParameterBlockConstant(params.t_w_c(anchor_id));

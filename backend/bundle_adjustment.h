@@ -75,12 +75,29 @@ struct BundleAdjustmentObservation {
   FeatureObservation observation;
 };
 
+// A measured relative pose between the sensors of two frames (e.g. two range imagers'
+// clouds aligned by backend/depth_alignment.h): with T_c_s the sensor's pose in the colour
+// camera and T_w_c the frames' poses, Y = (T_w_cj T_c_s)^-1 T_w_ci T_c_s maps frame i's
+// sensor coordinates into frame j's, and the measurement says Y = [Exp(omega), v] T_sj_si
+// with (omega, v) ~ N(0, H^-1), H = S^T S. Residual: S (Log(R_E), t_E) for E = Y T_sj_si^-1
+// (backend/ba_residuals.h). H may be singular: a direction the measurement does not
+// determine (a plane slides in its own directions) carries no information.
+struct RelativePoseConstraint {
+  int frame_i = -1;
+  int frame_j = -1;
+  Eigen::Isometry3d T_sj_si = Eigen::Isometry3d::Identity();
+  Eigen::Isometry3d T_c_s = Eigen::Isometry3d::Identity();
+  Matrix6d sqrt_information = Matrix6d::Zero();  // S; rotation (omega) first, then v
+};
+
 // The initial estimate and the observations. A plain value, filled by the caller (e.g. from
 // the filter's estimate and the observations that went into it, MakeProblemFromFilter).
 struct BundleAdjustmentProblem {
   std::map<int, Eigen::Isometry3d> T_w_c;  // by frame id
   std::map<int64_t, Eigen::Vector3d> p_w;  // by feature id
   std::vector<BundleAdjustmentObservation> observations;
+  // Terms between poses besides the observations; none in the filter's own problem.
+  std::vector<RelativePoseConstraint> relative_poses;
   // The pose held fixed (the gauge); -1: the smallest frame id.
   int anchor_frame_id = -1;
 
@@ -134,7 +151,7 @@ struct BundleAdjustmentResult {
   double initial_cost = 0.0;  // Ceres' 1/2 sum |r|^2 (after the robust loss), first solve
   double final_cost = 0.0;    // of the last solve, over the observations kept
   int iterations = 0;         // summed over the solves
-  int num_residuals = 0;      // scalar residuals, 3 per observation kept
+  int num_residuals = 0;      // scalar residuals: 3 per observation kept, 6 per relative pose
   bool usable = false;        // Ceres: CONVERGENCE or NO_CONVERGENCE with a finite cost
   std::string termination;    // Ceres' termination type and message
   double solve_time_s = 0.0;

@@ -128,6 +128,101 @@ TEST(BundleAdjustmentTest, ResidualMatchesTheFilterModelAndPassesGradientChecker
   }
 }
 
+// The relative-pose residual is S (omega, v) where the poses say Y = [Exp(omega), v] T_sj_si,
+// through a sensor offset T_c_s, and its autodiff Jacobians pass the gradient checker.
+TEST(BundleAdjustmentTest, RelativePoseResidualIsTheChartOfTheMeasurementAndPassesGradientChecker) {
+  std::mt19937 rng(4);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  const auto random_pose = [&](double scale) {
+    Vector6d pose;
+    pose << scale * unit(rng), scale * unit(rng), scale * unit(rng), M_PI * unit(rng),
+        0.5 * M_PI * unit(rng), M_PI * unit(rng);
+    return PoseToIsometry(pose);
+  };
+  const Eigen::Isometry3d T_w_ci = random_pose(2.0), T_c_s = random_pose(0.05);
+  const Eigen::Vector3d omega(0.01, -0.02, 0.015), v(0.003, 0.001, -0.002);
+  // The poses' relative pose in the sensors' frames is Y; the measurement is off by (omega, v).
+  const Eigen::Isometry3d Y = random_pose(0.3);
+  Eigen::Isometry3d D = Eigen::Isometry3d::Identity();
+  D.linear() = Eigen::AngleAxisd(omega.norm(), omega.normalized()).toRotationMatrix();
+  D.translation() = v;
+  const Eigen::Isometry3d T_sj_si = D.inverse() * Y;  // so that Y = D T_sj_si
+  // Y = (T_w_cj T_c_s)^-1 T_w_ci T_c_s  =>  T_w_cj = T_w_ci T_c_s Y^-1 T_c_s^-1.
+  const Eigen::Isometry3d T_w_cj = T_w_ci * T_c_s * Y.inverse() * T_c_s.inverse();
+  Matrix6d S = Matrix6d::Identity();
+  for (int i = 0; i < 6; ++i) {
+    for (int j = i; j < 6; ++j) S(i, j) += 0.2 * unit(rng);
+  }
+  std::unique_ptr<ceres::CostFunction> cost(RelativePoseResidual::Create(T_sj_si, T_c_s, S));
+  Eigen::Vector4d q_i = Eigen::Quaterniond(T_w_ci.linear()).coeffs();
+  Eigen::Vector4d q_j = Eigen::Quaterniond(T_w_cj.linear()).coeffs();
+  Eigen::Vector3d t_i = T_w_ci.translation(), t_j = T_w_cj.translation();
+  const double* parameters[] = {q_i.data(), t_i.data(), q_j.data(), t_j.data()};
+  Vector6d residual;
+  ASSERT_TRUE(cost->Evaluate(parameters, residual.data(), nullptr));
+  Vector6d expected;
+  expected << omega, v;
+  EXPECT_LT((residual - S * expected).norm(), 1e-9) << residual.transpose();
+  // At the measured relative pose itself the residual vanishes.
+  const Eigen::Isometry3d T_w_cj_exact = T_w_ci * T_c_s * T_sj_si.inverse() * T_c_s.inverse();
+  Eigen::Vector4d q_j_exact = Eigen::Quaterniond(T_w_cj_exact.linear()).coeffs();
+  Eigen::Vector3d t_j_exact = T_w_cj_exact.translation();
+  const double* exact[] = {q_i.data(), t_i.data(), q_j_exact.data(), t_j_exact.data()};
+  ASSERT_TRUE(cost->Evaluate(exact, residual.data(), nullptr));
+  EXPECT_LT(residual.norm(), 1e-9);
+#if defined(__SANITIZE_ADDRESS__)
+  GTEST_SKIP() << "GradientChecker across the prebuilt libceres boundary under ASan";
+#endif
+  ceres::EigenQuaternionManifold quaternion_manifold;
+  const std::vector<const ceres::Manifold*> manifolds = {&quaternion_manifold, nullptr,
+                                                         &quaternion_manifold, nullptr};
+  ceres::GradientChecker checker(cost.get(), &manifolds, ceres::NumericDiffOptions());
+  ceres::GradientChecker::ProbeResults results;
+  checker.Probe(parameters, 1e-7, &results);
+  ASSERT_TRUE(results.return_value);
+  for (int block = 0; block < 4; ++block) {
+    const ceres::Matrix& analytic = results.local_jacobians[block];
+    const ceres::Matrix& numeric = results.local_numeric_jacobians[block];
+    EXPECT_LT((analytic - numeric).norm(), 1e-6 * analytic.norm()) << "block " << block;
+  }
+}
+
+// Relative poses alone place a frame where they say (through a sensor offset); one naming a
+// frame the problem does not hold is an error naming both frames.
+TEST(BundleAdjustmentTest, RelativePoseConstraintsPlaceTheFramesTheyJoin) {
+  BundleAdjustmentProblem problem;
+  const Eigen::Isometry3d T_w_c0 =
+      PoseToIsometry((Vector6d() << 0.1, 0.2, 0.3, 0.4, -0.2, 0.1).finished());
+  const Eigen::Isometry3d T_w_c1 =
+      PoseToIsometry((Vector6d() << 0.5, 0.1, 0.2, 0.5, -0.1, 0.3).finished());
+  const Eigen::Isometry3d T_c_s =
+      PoseToIsometry((Vector6d() << 0.02, -0.01, 0.0, 0.0, 0.05, 0.0).finished());
+  problem.T_w_c[0] = T_w_c0;
+  problem.T_w_c[1] = PoseToIsometry((Vector6d() << 0.45, 0.15, 0.25, 0.45, -0.15, 0.35).finished());
+  RelativePoseConstraint c;
+  c.frame_i = 0;
+  c.frame_j = 1;
+  c.T_c_s = T_c_s;
+  c.T_sj_si = (T_w_c1 * T_c_s).inverse() * T_w_c0 * T_c_s;
+  c.sqrt_information = 100.0 * Matrix6d::Identity();
+  problem.relative_poses.push_back(c);
+  const BundleAdjustmentResult result =
+      SolveBundleAdjustment(problem, testing_ba::TestCamera(), BundleAdjustmentOptions());
+  ASSERT_TRUE(result.usable) << result.termination;
+  EXPECT_LT((result.T_w_c.at(1).translation() - T_w_c1.translation()).norm(), 1e-8);
+  EXPECT_LT(RotationAngleBetween(result.T_w_c.at(1).linear(), T_w_c1.linear()), 1e-8);
+  EXPECT_TRUE(result.T_w_c.at(0).isApprox(T_w_c0));  // the anchor
+  EXPECT_EQ(result.num_residuals, 6);
+
+  problem.relative_poses[0].frame_j = 5;
+  try {
+    SolveBundleAdjustment(problem, testing_ba::TestCamera(), BundleAdjustmentOptions());
+    FAIL() << "no error for an unknown frame";
+  } catch (const DataError& e) {
+    EXPECT_NE(std::string(e.what()).find("frames 0 and 5"), std::string::npos) << e.what();
+  }
+}
+
 TEST(BundleAdjustmentTest, QuaternionTangentIsHalfTheWorldRotationVector) {
   // The covariance conversion rests on this: EigenQuaternionManifold's delta rotates about
   // the world axis delta by 2 |delta|.

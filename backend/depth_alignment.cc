@@ -1,0 +1,326 @@
+#include "backend/depth_alignment.h"
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <thread>
+
+#include <Eigen/Eigenvalues>
+
+#include "core/error.h"
+
+namespace ieslam {
+namespace {
+
+double SecondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+// The Gauss-Newton system of the point-to-plane residuals r = n_t . (Y p_s - q_t) at Y, in
+// the chart Y <- [Exp(omega), v] Y, whose Jacobian is ((Y p_s) x n_t, n_t), and the cost
+// the alignment minimises: sum over the sampled source points of the Huber loss of r /
+// sigma where a point has a partner, and of the loss at the gate where it has none. With
+// that constant for the unmatched, the cost is one function of Y however the gates switch
+// points in and out, and a step that lowers it can be told from one that does not.
+struct NormalEquations {
+  Matrix6d H = Matrix6d::Zero();
+  Vector6d g = Vector6d::Zero();
+  double cost = 0.0;
+  int count = 0;
+  std::vector<double> abs_whitened;  // |r| / sigma per correspondence
+};
+
+double Huber(double abs_whitened, double k) {
+  return abs_whitened <= k ? 0.5 * abs_whitened * abs_whitened : k * (abs_whitened - 0.5 * k);
+}
+
+NormalEquations Associate(const RangeCloud& source, const RangeCloud& target,
+                          const std::vector<int>& samples, const Eigen::Isometry3d& Y,
+                          double gate_m, const DepthAlignmentOptions& options) {
+  const double min_normal_cos = std::cos(options.max_normal_angle_deg * M_PI / 180.0);
+  NormalEquations eq;
+  eq.abs_whitened.reserve(samples.size());
+  for (const int index : samples) {
+    const double sigma_s = source.sigma_m[index];
+    const double unmatched = Huber(gate_m / (std::sqrt(2.0) * sigma_s), options.huber_sigmas);
+    const Eigen::Vector3d a = Y * source.p_r[index].cast<double>();
+    Eigen::Vector3d q, n;
+    double sigma_t = 0.0;
+    if (!target.Interpolate(a, options.max_depth_ratio, &q, &n, &sigma_t) ||
+        (a - q).squaredNorm() > gate_m * gate_m ||
+        (Y.linear() * source.n_r[index].cast<double>()).dot(n) < min_normal_cos) {
+      eq.cost += unmatched;
+      continue;
+    }
+    const double r = n.dot(a - q);
+    const double variance = sigma_s * sigma_s + sigma_t * sigma_t;
+    const double whitened = std::abs(r) / std::sqrt(variance);
+    eq.cost += std::min(unmatched, Huber(whitened, options.huber_sigmas));
+    double w = 1.0 / variance;
+    if (whitened > options.huber_sigmas) w *= options.huber_sigmas / whitened;
+    Vector6d J;
+    J << a.cross(n), n;
+    eq.H.noalias() += w * J * J.transpose();
+    eq.g.noalias() += w * r * J;
+    ++eq.count;
+    eq.abs_whitened.push_back(whitened);
+  }
+  return eq;
+}
+
+// The minimum-norm solution of H x = -g: directions H does not determine (a plane slides
+// along itself) get no step instead of an arbitrary one.
+Vector6d GaussNewtonStep(const NormalEquations& eq) {
+  const Eigen::SelfAdjointEigenSolver<Matrix6d> eigen(eq.H);
+  const Vector6d& lambda = eigen.eigenvalues();
+  Vector6d step = Vector6d::Zero();
+  const double cutoff = 1e-10 * lambda.maxCoeff();
+  for (int k = 0; k < 6; ++k) {
+    if (lambda[k] > cutoff) {
+      const Vector6d u = eigen.eigenvectors().col(k);
+      step -= u * (u.dot(eq.g) / lambda[k]);
+    }
+  }
+  return step;
+}
+
+Eigen::Isometry3d Increment(const Vector6d& omega_v) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  const double angle = omega_v.head<3>().norm();
+  if (angle > 0.0) {
+    T.linear() = Eigen::AngleAxisd(angle, omega_v.head<3>() / angle).toRotationMatrix();
+  }
+  T.translation() = omega_v.tail<3>();
+  return T;
+}
+
+double RobustSigma(std::vector<double> abs_whitened) {
+  if (abs_whitened.empty()) return 0.0;
+  const auto middle = abs_whitened.begin() + abs_whitened.size() / 2;
+  std::nth_element(abs_whitened.begin(), middle, abs_whitened.end());
+  return 1.4826 * *middle;
+}
+
+std::vector<int> Samples(const RangeCloud& cloud, int step) {
+  std::vector<int> samples;
+  for (int y = 0; y < cloud.grid.height; y += step) {
+    for (int x = 0; x < cloud.grid.width; x += step) {
+      const int index = y * cloud.grid.width + x;
+      if (cloud.Valid(index)) samples.push_back(index);
+    }
+  }
+  return samples;
+}
+
+Matrix6d SqrtOf(const Matrix6d& H) {
+  const Eigen::SelfAdjointEigenSolver<Matrix6d> eigen(0.5 * (H + H.transpose()));
+  const Vector6d root = eigen.eigenvalues().cwiseMax(0.0).cwiseSqrt();
+  return root.asDiagonal() * eigen.eigenvectors().transpose();
+}
+
+// Runs work(k) for k in [0, count) on `threads` threads (the caller's among them).
+template <typename Work>
+void ParallelFor(size_t count, int threads, const Work& work) {
+  std::atomic<size_t> next{0};
+  auto run = [&]() {
+    for (size_t k = next++; k < count; k = next++) work(k);
+  };
+  std::vector<std::thread> pool;
+  for (int t = 1; t < threads && static_cast<size_t>(t) < count; ++t) pool.emplace_back(run);
+  run();
+  for (std::thread& thread : pool) thread.join();
+}
+
+Eigen::Isometry3d SensorPose(const Eigen::Isometry3d& T_w_c, const RangeCloud& cloud) {
+  return T_w_c * cloud.T_colour_range;
+}
+
+}  // namespace
+
+bool DepthAlignmentOptions::Check(std::string* why) const {
+  std::string problem;
+  auto positive = [](double x) { return x > 0.0 && std::isfinite(x); };
+  if (sample_step < 1) {
+    problem = "sample_step must be >= 1";
+  } else if (max_iterations < 1) {
+    problem = "max_iterations must be >= 1";
+  } else if (!positive(initial_gate_m) || !positive(final_gate_m) ||
+             final_gate_m > initial_gate_m) {
+    problem = "gates must be positive, final_gate_m <= initial_gate_m";
+  } else if (!(max_normal_angle_deg > 0.0 && max_normal_angle_deg <= 90.0)) {
+    problem = "max_normal_angle_deg must be in (0, 90]";
+  } else if (!positive(huber_sigmas) || !positive(max_robust_sigma)) {
+    problem = "huber_sigmas and max_robust_sigma must be positive";
+  } else if (!(min_overlap > 0.0 && min_overlap <= 1.0)) {
+    problem = "min_overlap must be in (0, 1]";
+  } else if (min_correspondences < 6) {
+    problem = "min_correspondences must be >= 6";
+  } else if (rounds < 0 || !(convergence_m >= 0.0)) {
+    problem = "rounds must be >= 0 and convergence_m >= 0";
+  } else if (num_threads < 1) {
+    problem = "num_threads must be >= 1";
+  }
+  if (!problem.empty() && why != nullptr) *why = "depth alignment: " + problem;
+  return problem.empty();
+}
+
+PairAlignment AlignRangeClouds(const RangeCloud& source, const RangeCloud& target,
+                               const Eigen::Isometry3d& T_t_s_initial,
+                               const DepthAlignmentOptions& options) {
+  PairAlignment result;
+  const std::vector<int> samples = Samples(source, options.sample_step);
+  result.samples = static_cast<int>(samples.size());
+  Eigen::Isometry3d Y = T_t_s_initial;
+  double gate = options.initial_gate_m;
+  bool converged = false;
+  // Converged once a step is below a tenth of a millimetre (and of a milliradian, a tenth of
+  // a millimetre at 1 m), an order of magnitude under any point's range noise: the gates
+  // switch single points in and out near the optimum and keep steps of ~1e-5 going forever.
+  constexpr double kConverged = 1e-4;
+  NormalEquations eq = Associate(source, target, samples, Y, gate, options);
+  for (int it = 0; it < options.max_iterations && !converged; ++it) {
+    if (eq.count < options.min_correspondences) {
+      result.why_not = "too few correspondences (" + std::to_string(eq.count) + ")";
+      return result;
+    }
+    // Gauss-Newton with backtracking: the full step, else halves of it, the first that
+    // lowers the cost; none does at a minimum of the cost as the gates cut it.
+    Vector6d step = GaussNewtonStep(eq);
+    bool moved = false;
+    for (int halving = 0; halving < 4; ++halving) {
+      const Eigen::Isometry3d Y_next = Increment(step) * Y;
+      NormalEquations next = Associate(source, target, samples, Y_next, gate, options);
+      if (next.cost < eq.cost) {
+        Y = Y_next;
+        eq = std::move(next);
+        moved = true;
+        break;
+      }
+      step *= 0.5;
+    }
+    ++result.iterations;
+    if (!moved || (step.head<3>().norm() < kConverged && step.tail<3>().norm() < kConverged)) {
+      if (gate == options.final_gate_m) converged = true;
+      gate = options.final_gate_m;
+      eq = Associate(source, target, samples, Y, gate, options);
+    }
+  }
+  if (!converged) {
+    result.why_not = "no convergence in " + std::to_string(options.max_iterations) + " iterations";
+    return result;
+  }
+  result.T_t_s = Y;
+  result.information = 0.5 * (eq.H + eq.H.transpose());
+  result.correspondences = eq.count;
+  result.overlap = samples.empty() ? 0.0 : static_cast<double>(eq.count) / samples.size();
+  result.robust_sigma = RobustSigma(eq.abs_whitened);
+  if (eq.count < options.min_correspondences || result.overlap < options.min_overlap) {
+    result.why_not = "overlap " + std::to_string(result.overlap) + " too small";
+  } else if (result.robust_sigma > options.max_robust_sigma) {
+    result.why_not = "surfaces apart (robust sigma " + std::to_string(result.robust_sigma) + ")";
+  } else {
+    result.usable = true;
+  }
+  return result;
+}
+
+std::vector<RelativePoseConstraint> AlignCloudPairs(const std::map<int, RangeCloud>& clouds,
+                                                    const std::map<int, Eigen::Isometry3d>& T_w_c,
+                                                    const DepthAlignmentOptions& options,
+                                                    DepthAlignmentStats* stats) {
+  std::string why;
+  if (!options.Check(&why)) throw ConfigError(why);
+  std::vector<int> frames;
+  for (const auto& [frame, cloud] : clouds) {
+    if (T_w_c.count(frame) > 0) frames.push_back(frame);
+  }
+  // Pairs whose clouds overlap at the given poses: a sparse subset of one cloud's points
+  // lands on the other's surfaces (within the initial gate) often enough.
+  std::vector<Eigen::Isometry3d> T_w_s;
+  std::vector<std::vector<int>> coarse_samples;
+  for (const int frame : frames) {
+    T_w_s.push_back(SensorPose(T_w_c.at(frame), clouds.at(frame)));
+    coarse_samples.push_back(Samples(clouds.at(frame), 2 * options.sample_step));
+  }
+  std::vector<std::pair<size_t, size_t>> all_pairs;
+  for (size_t a = 0; a < frames.size(); ++a) {
+    for (size_t b = a + 1; b < frames.size(); ++b) all_pairs.emplace_back(a, b);
+  }
+  std::vector<char> overlaps(all_pairs.size(), 0);
+  ParallelFor(all_pairs.size(), options.num_threads, [&](size_t k) {
+    const auto [a, b] = all_pairs[k];
+    const NormalEquations eq =
+        Associate(clouds.at(frames[a]), clouds.at(frames[b]), coarse_samples[a],
+                  T_w_s[b].inverse() * T_w_s[a], options.initial_gate_m, options);
+    overlaps[k] =
+        !coarse_samples[a].empty() && eq.count >= options.min_overlap * coarse_samples[a].size();
+  });
+  std::vector<std::pair<int, int>> pairs;
+  std::vector<Eigen::Isometry3d> T_j_i;
+  for (size_t k = 0; k < all_pairs.size(); ++k) {
+    if (!overlaps[k]) continue;
+    const auto [a, b] = all_pairs[k];
+    pairs.emplace_back(frames[a], frames[b]);
+    T_j_i.push_back(T_w_s[b].inverse() * T_w_s[a]);
+  }
+  std::vector<PairAlignment> aligned(pairs.size());
+  ParallelFor(pairs.size(), options.num_threads, [&](size_t k) {
+    aligned[k] =
+        AlignRangeClouds(clouds.at(pairs[k].first), clouds.at(pairs[k].second), T_j_i[k], options);
+  });
+
+  std::vector<RelativePoseConstraint> constraints;
+  double overlap_sum = 0.0;
+  for (size_t k = 0; k < pairs.size(); ++k) {
+    if (!aligned[k].usable) continue;
+    RelativePoseConstraint c;
+    c.frame_i = pairs[k].first;
+    c.frame_j = pairs[k].second;
+    c.T_sj_si = aligned[k].T_t_s;
+    c.T_c_s = clouds.at(c.frame_i).T_colour_range;
+    c.sqrt_information = SqrtOf(aligned[k].information);
+    constraints.push_back(c);
+    overlap_sum += aligned[k].overlap;
+  }
+  if (stats != nullptr) {
+    stats->pairs_tried = static_cast<int>(pairs.size());
+    stats->constraints = static_cast<int>(constraints.size());
+    stats->mean_overlap = constraints.empty() ? 0.0 : overlap_sum / constraints.size();
+  }
+  return constraints;
+}
+
+BundleAdjustmentResult SolveWithDepthAlignment(BundleAdjustmentProblem problem,
+                                               const PinholeCamera& camera,
+                                               const std::map<int, RangeCloud>& clouds,
+                                               const BundleAdjustmentOptions& ba_options,
+                                               const DepthAlignmentOptions& options,
+                                               DepthAlignmentStats* stats) {
+  DepthAlignmentStats local;
+  DepthAlignmentStats* s = stats != nullptr ? stats : &local;
+  *s = DepthAlignmentStats();
+  if (options.rounds == 0) return SolveBundleAdjustment(problem, camera, ba_options);
+  BundleAdjustmentResult result;
+  for (int round = 0; round < options.rounds; ++round) {
+    const auto align_start = std::chrono::steady_clock::now();
+    problem.relative_poses = AlignCloudPairs(clouds, problem.T_w_c, options, s);
+    s->seconds_alignment += SecondsSince(align_start);
+    const auto ba_start = std::chrono::steady_clock::now();
+    result = SolveBundleAdjustment(problem, camera, ba_options);
+    s->seconds_ba += SecondsSince(ba_start);
+    ++s->rounds;
+    if (!result.usable) break;
+    double change = 0.0;
+    for (const auto& [frame, T] : result.T_w_c) {
+      const Eigen::Isometry3d D = problem.T_w_c.at(frame).inverse() * T;
+      change = std::max({change, D.translation().norm(), Eigen::AngleAxisd(D.linear()).angle()});
+    }
+    problem.T_w_c = result.T_w_c;
+    problem.p_w = result.p_w;
+    if (change < options.convergence_m) break;
+  }
+  return result;
+}
+
+}  // namespace ieslam

@@ -1,0 +1,110 @@
+// Dense alignment of the selected frames' range clouds, for the batch refinement.
+//
+// The filter and the bundle adjustment see a range image only through the few hundred
+// features lifted from it. Its surfaces say much more about the relative pose of two frames
+// that see the same part of the scene, from any distance in the sequence. Each pair of
+// selected frames whose clouds overlap is aligned by point-to-plane ICP (projective data
+// association, Gauss-Newton on SE(3), Huber-weighted, each point weighed by the range noise
+// model). The aligned relative pose and the Gauss-Newton information of that alignment
+// become a RelativePoseConstraint of the bundle adjustment, which then fits the features
+// and all the pairs' surfaces together. Associations depend on the poses, so alignment and
+// bundle adjustment alternate for a few rounds (multiway registration, as Choi, Zhou &
+// Koltun, "Robust Reconstruction of Indoor Scenes", CVPR 2015, refine their fragments).
+#pragma once
+
+#include <map>
+#include <string>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include "backend/bundle_adjustment.h"
+#include "core/range_cloud.h"
+
+namespace ieslam {
+
+struct DepthAlignmentOptions {
+  // Every n-th grid point of the source cloud in each direction is associated. With
+  // RangeCloudOptions::step 4 that is one point per 8 range pixels, about the size of the
+  // window a structured-light sensor correlates to measure one depth (Kinect v1: 9 x 9), so
+  // that the points' noise is close to independent, as the information assumes.
+  int sample_step = 2;
+  int max_iterations = 30;
+  // Association gates on the point-to-point distance. The first phase allows for the error
+  // of the starting relative pose (the front end's registrations are good to about a
+  // centimetre); once that phase converges, the final gate keeps only points within the
+  // range noise of far surfaces (Kinect v1 at 3.5 m: 2 cm) and so separates surfaces that
+  // lie closer than the initial gate.
+  double initial_gate_m = 0.05;
+  double final_gate_m = 0.02;
+  double max_normal_angle_deg = 30.0;
+  // The four grid points a target surface is interpolated from must lie within this share
+  // of their depth of each other (RangeCloud::Interpolate; as RangeCloudOptions' edge test).
+  double max_depth_ratio = 0.05;
+  // Huber weights on the point-to-plane residual in units of its noise.
+  double huber_sigmas = 2.0;
+  // A pair is aligned when at least min_overlap of the source's sampled points land on the
+  // target's surfaces at the starting poses, and counts when as many have a partner at the
+  // end, at least min_correspondences, and the robust spread of the whitened residuals
+  // (1.4826 median |r| / sigma) is below max_robust_sigma: a wrong alignment leaves
+  // surfaces apart and fails it. The share is low on purpose: the pairs that close loops
+  // see the same surfaces from far apart and share little, and are the ones that remove
+  // drift; a small overlap already carries only the information of its own points.
+  double min_overlap = 0.1;
+  int min_correspondences = 200;
+  double max_robust_sigma = 3.0;
+  // Alternations of pairwise alignment and bundle adjustment; stops early once no pose
+  // moves by more than convergence_m (at 1 m, also the rotation in radians). 0: no depth
+  // alignment (the batch refinement is the bundle adjustment of the features alone).
+  int rounds = 3;
+  double convergence_m = 1e-3;
+  int num_threads = 1;  // pairs are aligned in parallel; the result does not depend on it
+
+  bool Check(std::string* why) const;
+};
+
+struct PairAlignment {
+  bool usable = false;
+  std::string why_not;                                      // when not usable
+  Eigen::Isometry3d T_t_s = Eigen::Isometry3d::Identity();  // target <- source sensor frame
+  Matrix6d information = Matrix6d::Zero();                  // (omega, v), T = [Exp(omega), v] T_t_s
+  int samples = 0;                                          // source points tried
+  int correspondences = 0;
+  double overlap = 0.0;  // correspondences / samples
+  double robust_sigma = 0.0;
+  int iterations = 0;
+};
+
+// Aligns `source` to `target` from the initial guess T_t_s (source sensor frame into the
+// target's).
+PairAlignment AlignRangeClouds(const RangeCloud& source, const RangeCloud& target,
+                               const Eigen::Isometry3d& T_t_s_initial,
+                               const DepthAlignmentOptions& options);
+
+struct DepthAlignmentStats {
+  int rounds = 0;
+  int pairs_tried = 0;  // last round: pairs whose clouds overlap at the starting poses
+  int constraints = 0;  // last round: pairs aligned and used
+  double mean_overlap = 0.0;
+  double seconds_alignment = 0.0;  // all rounds
+  double seconds_ba = 0.0;
+};
+
+// The constraints of every overlapping pair of clouds (frame ids of `clouds`) at the poses
+// T_w_c, i < j; clouds without a pose are ignored.
+std::vector<RelativePoseConstraint> AlignCloudPairs(const std::map<int, RangeCloud>& clouds,
+                                                    const std::map<int, Eigen::Isometry3d>& T_w_c,
+                                                    const DepthAlignmentOptions& options,
+                                                    DepthAlignmentStats* stats = nullptr);
+
+// The bundle adjustment of `problem` with the clouds' pairwise constraints added
+// (problem.relative_poses is replaced by them), alternated with the alignment for
+// options.rounds rounds (0: the bundle adjustment of `problem` as it is).
+BundleAdjustmentResult SolveWithDepthAlignment(BundleAdjustmentProblem problem,
+                                               const PinholeCamera& camera,
+                                               const std::map<int, RangeCloud>& clouds,
+                                               const BundleAdjustmentOptions& ba_options,
+                                               const DepthAlignmentOptions& options,
+                                               DepthAlignmentStats* stats = nullptr);
+
+}  // namespace ieslam
