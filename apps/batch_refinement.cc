@@ -32,6 +32,53 @@ Json BaOptionsToJson(const BundleAdjustmentOptions& options) {
       .Set("max_iterations", options.max_iterations);
 }
 
+std::map<int, RangeCloud> LoadRangeClouds(const Dataset& dataset, const StoredBaProblem& stored,
+                                          const RangeCloudOptions& options,
+                                          const std::string& command) {
+  constexpr double kSameTimestampS = 1e-4;
+  std::map<int, RangeCloud> clouds;
+  for (const auto& [frame, T_w_c] : stored.problem.T_w_c) {
+    const auto stamp = stored.timestamps.find(frame);
+    int index = -1;
+    if (stamp != stored.timestamps.end()) {
+      for (int i = 0; i < dataset.size() && index < 0; ++i) {
+        if (std::abs(dataset.info(i).timestamp - stamp->second) <= kSameTimestampS) index = i;
+      }
+    }
+    if (index < 0) {
+      std::fprintf(stderr,
+                   "%s: warning: frame %d left out of the depth alignment: no frame of %s at "
+                   "its timestamp\n",
+                   command.c_str(), frame, dataset.directory().c_str());
+      continue;
+    }
+    try {
+      const Frame loaded = dataset.Load(index);
+      clouds[frame] =
+          MakeRangeCloud(loaded.depth, dataset.rig().range, dataset.rig().T_colour_range, options,
+                         "frame " + std::to_string(frame));
+    } catch (const DataError& e) {
+      std::fprintf(stderr, "%s: warning: frame %d left out of the depth alignment: %s\n",
+                   command.c_str(), frame, e.what());
+    }
+  }
+  return clouds;
+}
+
+Json DepthAlignmentOptionsToJson(const DepthAlignmentOptions& options,
+                                 const RangeCloudOptions& cloud) {
+  return Json::Object()
+      .Set("rounds", options.rounds)
+      .Set("grid_step", cloud.step)
+      .Set("sample_step", options.sample_step)
+      .Set("initial_gate_m", options.initial_gate_m)
+      .Set("final_gate_m", options.final_gate_m)
+      .Set("max_normal_angle_deg", options.max_normal_angle_deg)
+      .Set("huber_sigmas", options.huber_sigmas)
+      .Set("min_overlap", options.min_overlap)
+      .Set("max_robust_sigma", options.max_robust_sigma);
+}
+
 namespace {
 
 // Keyed by component: u and v in pixels' sigmas, d in the range's.
@@ -51,11 +98,23 @@ Json ResidualCheckToJson(const BundleAdjustmentResult::ResidualCheck& check) {
 
 RefinementOutcome RefineToFiles(const StoredBaProblem& stored, const SlamEstimate& filter_estimate,
                                 const BundleAdjustmentOptions& options, const std::string& out,
-                                const std::string& gt_path) {
+                                const std::string& gt_path, const DepthRefinement* depth) {
   RefinementOutcome outcome;
   const auto start = std::chrono::steady_clock::now();
-  const BundleAdjustmentResult refined =
+  const BundleAdjustmentResult smoothed =
       SolveBundleAdjustment(stored.problem, stored.camera, options);
+  BundleAdjustmentResult depth_aligned;
+  DepthAlignmentStats stats;
+  const bool align =
+      depth != nullptr && depth->options.rounds > 0 && !depth->clouds.empty() && smoothed.usable;
+  if (align) {
+    BundleAdjustmentProblem problem = stored.problem;
+    problem.T_w_c = smoothed.T_w_c;
+    problem.p_w = smoothed.p_w;
+    depth_aligned = SolveWithDepthAlignment(problem, stored.camera, depth->clouds, options,
+                                            depth->options, &stats);
+  }
+  const BundleAdjustmentResult& refined = align ? depth_aligned : smoothed;
   outcome.seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   Trajectory trajectory;
@@ -66,19 +125,37 @@ RefinementOutcome RefineToFiles(const StoredBaProblem& stored, const SlamEstimat
             [](const TimedPose& a, const TimedPose& b) { return a.timestamp < b.timestamp; });
   WriteTumTrajectory(JoinPath(out, "refined.tum"), trajectory, "ieslam bundle-adjusted keyframes");
   if (!gt_path.empty()) outcome.ate_refined_m = AteOfFiles(gt_path, JoinPath(out, "refined.tum"));
-  outcome.comparison = ComparisonToJson(
-      CompareFilterToSmoother(filter_estimate, SmootherEstimate(refined)), true);
-  const Json solver = Json::Object()
-                          .Set("initial_cost", refined.initial_cost)
-                          .Set("final_cost", refined.final_cost)
-                          .Set("iterations", refined.iterations)
-                          .Set("residuals", refined.num_residuals)
-                          .Set("rejected_observations", static_cast<int>(refined.rejected.size()))
-                          .Set("rejection_variance_factor", refined.rejection_variance_factor)
-                          .Set("residual_check", ResidualCheckToJson(refined.residual_check))
-                          .Set("termination", refined.termination)
-                          .Set("seconds", refined.solve_time_s);
-  outcome.comparison.Set("ba", solver);
+  outcome.comparison =
+      ComparisonToJson(CompareFilterToSmoother(filter_estimate, SmootherEstimate(smoothed)), true);
+  const auto solver = [](const BundleAdjustmentResult& r) {
+    return Json::Object()
+        .Set("initial_cost", r.initial_cost)
+        .Set("final_cost", r.final_cost)
+        .Set("iterations", r.iterations)
+        .Set("residuals", r.num_residuals)
+        .Set("rejected_observations", static_cast<int>(r.rejected.size()))
+        .Set("rejection_variance_factor", r.rejection_variance_factor)
+        .Set("residual_check", ResidualCheckToJson(r.residual_check))
+        .Set("termination", r.termination)
+        .Set("seconds", r.solve_time_s);
+  };
+  outcome.comparison.Set("ba", solver(smoothed));
+  if (align) {
+    // refined.tum: where it differs from the smoother compared above, and by how much.
+    const FilterSmootherComparison change =
+        CompareFilterToSmoother(SmootherEstimate(smoothed), SmootherEstimate(depth_aligned));
+    const Json summary = Json::Object()
+                             .Set("rounds", stats.rounds)
+                             .Set("pairs_tried", stats.pairs_tried)
+                             .Set("constraints", stats.constraints)
+                             .Set("mean_overlap", stats.mean_overlap)
+                             .Set("seconds_alignment", stats.seconds_alignment)
+                             .Set("seconds_ba", stats.seconds_ba)
+                             .Set("change_from_ba_translation_rmse_m", change.translation_m.rmse)
+                             .Set("change_from_ba_rotation_rmse_deg", change.rotation_deg.rmse)
+                             .Set("ba", solver(depth_aligned));
+    outcome.comparison.Set("depth_alignment", summary);
+  }
   return outcome;
 }
 

@@ -1,6 +1,8 @@
 // `ieslam refine`: batch refinement of an earlier run without re-running the front end and
 // the filter. Reads RUN/ba_problem.txt (written by every `ieslam run` with a filter), bundle-
-// adjusts it and writes OUT/refined.tum and OUT/report.json.
+// adjusts it and writes OUT/refined.tum and OUT/report.json. With --dataset (the run's),
+// the selected frames' range images are read again and aligned pairwise in the refinement,
+// as `ieslam run --refine` does.
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
@@ -36,14 +38,20 @@ int RefineCommand(const CommandArgs& args) {
       {"run", "DIR", "output directory of an earlier `ieslam run` (required)"},
       {"output", "OUT", "output directory (required; may be DIR itself)"},
       {"robust", "L", "none (default) or huber: loss on the whitened residuals"},
-      {"config", "FILE", "YAML; its ba section sets the solver's options"},
+      {"dataset", "DIR", "the run's dataset: align the selected frames' range images too"},
+      {"format", "F", "with --dataset: auto (default), tum, 7scenes or pair"},
+      {"calib", "FILE", "with --dataset: calibration file (default: the format's)"},
+      {"config", "FILE", "YAML; its ba and depth_alignment sections set the options"},
       {"threads", "N", "1: deterministic single-thread mode (default: 1)"}};
   const Flags flags(args, specs);
   if (flags.help()) {
-    std::cout << FormatHelp("refine", "--run DIR --output OUT [flags]",
-                            "Bundle-adjusts the keyframes and features of an earlier run\n"
-                            "(DIR/ba_problem.txt) and writes refined.tum and report.json into OUT.",
-                            specs);
+    std::cout << FormatHelp(
+        "refine", "--run DIR --output OUT [flags]",
+        "Bundle-adjusts the keyframes and features of an earlier run\n"
+        "(DIR/ba_problem.txt) and writes refined.tum and report.json into OUT.\n"
+        "With --dataset, the selected frames' range images are aligned\n"
+        "pairwise in the refinement (as `ieslam run --refine`).",
+        specs);
     return 0;
   }
   RunOptions options;
@@ -61,11 +69,21 @@ int RefineCommand(const CommandArgs& args) {
   const std::string out = flags.Require("output");
   RequireDirectory(run, "run directory");
   const StoredBaProblem stored = ReadBaProblem(JoinPath(run, "ba_problem.txt"));
+  DepthRefinement depth;
+  depth.options = options.depth_alignment;
+  depth.options.num_threads = ba.num_threads;
+  if (flags.Has("dataset") && depth.options.rounds > 0) {
+    DatasetOptions dataset_options = options.dataset_options;
+    dataset_options.format = flags.GetString("format", dataset_options.format);
+    dataset_options.calib_file = flags.GetString("calib", dataset_options.calib_file);
+    const auto dataset = OpenDataset(flags.Require("dataset"), dataset_options);
+    depth.clouds = LoadRangeClouds(*dataset, stored, options.range_cloud, "refine");
+  }
   PrepareOutputDirectory(out);
   const std::string gt = JoinPath(run, "groundtruth.tum");
   const bool has_gt = FileExists(gt);
-  const RefinementOutcome refined =
-      RefineToFiles(stored, InitialEstimate(stored.problem), ba, out, has_gt ? gt : std::string());
+  const RefinementOutcome refined = RefineToFiles(stored, InitialEstimate(stored.problem), ba, out,
+                                                  has_gt ? gt : std::string(), &depth);
 
   Json report = Json::Object();
   report.Set("version", IESLAM_VERSION)
@@ -75,6 +93,11 @@ int RefineCommand(const CommandArgs& args) {
       .Set("observations", static_cast<int>(stored.problem.observations.size()));
   report["options"].Set("ba", BaOptionsToJson(ba));
   report["options"]["ba"].Set("threads", ba.num_threads);
+  if (!depth.clouds.empty()) {
+    report["options"].Set("dataset", flags.GetString("dataset", ""));
+    report["options"].Set("depth_alignment",
+                          DepthAlignmentOptionsToJson(depth.options, options.range_cloud));
+  }
   report["seconds"].Set("ba", refined.seconds);
   const std::string keyframes = JoinPath(run, "keyframes.tum");
   if (has_gt) {

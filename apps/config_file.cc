@@ -132,7 +132,8 @@ void ApplyConfigFile(const std::string& path, RunOptions* o) {
          x->Int("max_recovery_frames", &o->selector.max_recovery_frames);
          x->Double("min_view_change_deg", &o->selector.min_view_change_deg);
        }},
-      {"filter", [&](Section* x) { x->Double("anchor_information", &o->filter.anchor_information); }},
+      {"filter",
+       [&](Section* x) { x->Double("anchor_information", &o->filter.anchor_information); }},
       {"map",
        [&](Section* x) {
          x->Double("voxel_size_m", &o->map.voxel_size_m);
@@ -150,6 +151,19 @@ void ApplyConfigFile(const std::string& path, RunOptions* o) {
          x->Int("max_rejection_rounds", &o->ba.max_rejection_rounds);
          x->Int("max_iterations", &o->ba.max_iterations);
        }},
+      {"depth_alignment",
+       [&](Section* x) {
+         DepthAlignmentOptions& d = o->depth_alignment;
+         x->Int("rounds", &d.rounds);
+         x->Int("grid_step", &o->range_cloud.step);
+         x->Int("sample_step", &d.sample_step);
+         x->Double("initial_gate_m", &d.initial_gate_m);
+         x->Double("final_gate_m", &d.final_gate_m);
+         x->Double("max_normal_angle_deg", &d.max_normal_angle_deg);
+         x->Double("huber_sigmas", &d.huber_sigmas);
+         x->Double("min_overlap", &d.min_overlap);
+         x->Double("max_robust_sigma", &d.max_robust_sigma);
+       }},
   };
   const cv::FileNode root = fs.root();
   for (const cv::FileNode& node : root) {
@@ -164,7 +178,8 @@ void ApplyConfigFile(const std::string& path, RunOptions* o) {
   }
   std::string why;
   if (!o->source.Check(&why) || !o->selector.Check(&why) || !o->filter.Check(&why) ||
-      !o->map.Check(&why) || !o->ba.Check(&why)) {
+      !o->map.Check(&why) || !o->ba.Check(&why) || !o->range_cloud.Check(&why) ||
+      !o->depth_alignment.Check(&why)) {
     throw ConfigError(path + ": " + why);
   }
 }

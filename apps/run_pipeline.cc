@@ -76,7 +76,8 @@ bool RunOptions::Check(std::string* why) const {
     return false;
   }
   return dataset_options.Check(why) && source.Check(why) && selector.Check(why) &&
-         filter.Check(why) && map.Check(why);
+         filter.Check(why) && map.Check(why) && range_cloud.Check(why) &&
+         depth_alignment.Check(why);
 }
 
 Json RunOptions::ToJson() const {
@@ -115,6 +116,7 @@ Json RunOptions::ToJson() const {
   json["filter"].Set("anchor_information", filter.anchor_information);
   json["map"].Set("voxel_size_m", map.voxel_size_m).Set("pixel_step", map.pixel_step);
   json.Set("ba", BaOptionsToJson(ba));
+  json.Set("depth_alignment", DepthAlignmentOptionsToJson(depth_alignment, range_cloud));
   json.Set("threads", threads);
   return json;
 }
@@ -210,9 +212,16 @@ RunSummary RunPipeline(const RunOptions& options, const std::function<bool()>& s
     if (options.refine) {
       BundleAdjustmentOptions ba = options.ba;
       if (options.threads > 0) ba.num_threads = options.threads;
+      DepthRefinement depth;
+      depth.options = options.depth_alignment;
+      // Pairs align independently: any number of threads gives the same constraints.
+      depth.options.num_threads = options.threads > 0 ? options.threads : cores;
+      if (depth.options.rounds > 0) {
+        depth.clouds = LoadRangeClouds(*dataset, stored, options.range_cloud, "run");
+      }
       const RefinementOutcome refined =
           RefineToFiles(stored, estimate, ba, out,
-                        has_gt ? JoinPath(out, "groundtruth.tum") : std::string());
+                        has_gt ? JoinPath(out, "groundtruth.tum") : std::string(), &depth);
       ba_seconds = refined.seconds;
       summary.ate_refined_m = refined.ate_refined_m;
       comparison = refined.comparison;

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "backend/bundle_adjustment.h"
+#include "backend/depth_alignment.h"
 #include "backend/information_filter.h"
 #include "core/dataset.h"
 #include "core/json.h"
@@ -26,6 +27,9 @@ struct RunOptions {
   DenseMapOptions map;
   bool refine = false;  // bundle-adjust the selected frames after the filter
   BundleAdjustmentOptions ba;
+  // With --refine: the selected frames' range clouds aligned pairwise in the refinement.
+  RangeCloudOptions range_cloud;
+  DepthAlignmentOptions depth_alignment;
   uint32_t seed = 1;
   int threads = 0;  // 0: OpenCV's default; 1: the deterministic single-thread mode
   bool quiet = false;

@@ -57,6 +57,10 @@ TEST(ConfigFileTest, BadFilesNameTheKey) {
   EXPECT_NE(ErrorOf("%YAML:1.0\nselector: { kind: \"greedy\" }\n").find("selector.kind"),
             std::string::npos);
   EXPECT_NE(ErrorOf("%YAML:1.0\nmap: { voxel_size_m: .nan }\n").find("map"), std::string::npos);
+  EXPECT_NE(ErrorOf("%YAML:1.0\ndepth_alignment: { min_overlap: 0 }\n").find("min_overlap"),
+            std::string::npos);
+  EXPECT_NE(ErrorOf("%YAML:1.0\ndepth_alignment: { grid_step: 0 }\n").find("step"),
+            std::string::npos);
   RunOptions options;
   EXPECT_THROW(ApplyConfigFile("/no/such/config.yaml", &options), DataError);
 }

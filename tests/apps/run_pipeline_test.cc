@@ -79,7 +79,9 @@ TEST_F(RunPipelineTest, WritesEveryOutputAndTracksTheSyntheticSequence) {
 // Two runs of the command, as a user makes them (separate processes: CHOLMOD's METIS keeps
 // its random state across orderings within one process).
 // --refine writes refined.tum and the comparison; `ieslam refine` on the run's
-// ba_problem.txt later gives the same refined.tum, byte for byte.
+// ba_problem.txt and dataset later gives the same refined.tum, byte for byte. Without the
+// dataset it is the bundle adjustment of the features alone, which the depth alignment
+// improves on.
 TEST_F(RunPipelineTest, RefineNowAndRefineLaterFromTheStoredProblemAgree) {
   RunOptions options = Options("refined");
   options.refine = true;
@@ -88,14 +90,26 @@ TEST_F(RunPipelineTest, RefineNowAndRefineLaterFromTheStoredProblemAgree) {
   ASSERT_TRUE(fs::is_regular_file(out / "ba_problem.txt"));
   ASSERT_TRUE(fs::is_regular_file(out / "refined.tum"));
   EXPECT_LT(summary.ate_refined_m, 0.02);
-  EXPECT_NE(ReadFile(out / "report.json").find("\"filter_vs_smoother\""), std::string::npos);
+  const std::string run_report = ReadFile(out / "report.json");
+  EXPECT_NE(run_report.find("\"filter_vs_smoother\""), std::string::npos);
+  EXPECT_NE(run_report.find("\"depth_alignment\""), std::string::npos);
   const fs::path later = root_ / "refined_later";
   const testing_apps::CommandResult later_run =
-      testing_apps::RunIeslam("refine --run " + out.string() + " --output " + later.string());
+      testing_apps::RunIeslam("refine --run " + out.string() + " --dataset " +
+                              (root_ / "synthetic").string() + " --output " + later.string());
   ASSERT_EQ(later_run.exit_code, 0) << later_run.output;
   EXPECT_EQ(ReadFile(later / "refined.tum"), ReadFile(out / "refined.tum"));
   const std::string report = ReadFile(later / "report.json");
   EXPECT_NE(report.find("\"refined\""), std::string::npos) << report;
+  const fs::path features_only = root_ / "refined_features_only";
+  const testing_apps::CommandResult features_run = testing_apps::RunIeslam(
+      "refine --run " + out.string() + " --output " + features_only.string());
+  ASSERT_EQ(features_run.exit_code, 0) << features_run.output;
+  const std::string gt = (out / "groundtruth.tum").string();
+  const double ate_features_only =
+      EvaluateTrajectoryFiles(gt, (features_only / "refined.tum").string(), EvaluationOptions())
+          .ate.translation.rmse;
+  EXPECT_LT(summary.ate_refined_m, ate_features_only);
   // A run directory without a stored problem is a data error (exit 3) naming the file.
   const testing_apps::CommandResult missing = testing_apps::RunIeslam(
       "refine --run " + later.string() + " --output " + (root_ / "x").string());
