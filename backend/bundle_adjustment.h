@@ -131,6 +131,9 @@ struct BundleAdjustmentResult {
   // and the gate's last variance factor (>= 1: the gate was rejection_chi2 times this).
   std::vector<BundleAdjustmentObservation> rejected;
   double rejection_variance_factor = 1.0;
+  // Relative poses dropped by the same gate at the same probability for 6 degrees of freedom
+  // (22.46 for rejection_chi2 16.27), widened by their own variance factor.
+  int rejected_relative_poses = 0;
 
   // The noise model checked without ground truth: each observation's error h - z at the
   // result, per component (u, v, d) in units of its own sigma sqrt(Q_ii), rejected ones

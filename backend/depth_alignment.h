@@ -52,6 +52,10 @@ struct DepthAlignmentOptions {
   // drift; a small overlap already carries only the information of its own points.
   double min_overlap = 0.1;
   int min_correspondences = 200;
+  // Each frame picks at most this many others to be aligned with, spread over the sequence
+  // (a pair is aligned when either frame picks it): the work and the bundle adjustment's
+  // terms grow linearly with the frames, not quadratically.
+  int max_partners = 20;
   double max_robust_sigma = 3.0;
   // Alternations of pairwise alignment and bundle adjustment; stops early once no pose
   // moves by more than convergence_m (at 1 m, also the rotation in radians). 0: no depth

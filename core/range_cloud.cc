@@ -12,8 +12,8 @@ namespace ieslam {
 
 bool RangeCloudOptions::Check(std::string* why) const {
   std::string problem;
-  if (step < 1) {
-    problem = "step must be >= 1";
+  if (step < 1 || step > 64) {
+    problem = "step (grid_step) must be in [1, 64], got " + std::to_string(step);
   } else if (!(max_neighbour_depth_ratio > 0.0) || !std::isfinite(max_neighbour_depth_ratio)) {
     problem = "max_neighbour_depth_ratio must be positive";
   } else if (!(max_flatness_sigmas > 0.0) || !std::isfinite(max_flatness_sigmas)) {
@@ -91,7 +91,8 @@ RangeCloud MakeRangeCloud(const cv::Mat& depth, const RangeImager& range,
   cloud.sigma_m.assign(cells, nan);
 
   const int radius = step, stride = std::max(1, step / 2);
-  const int window = (2 * (radius / stride) + 1) * (2 * (radius / stride) + 1);
+  const int per_row = 2 * (radius / stride) + 1;  // the window's offsets in each direction
+  const int window = per_row * per_row;
   const double min_cos_incidence = std::cos(options.max_incidence_deg * M_PI / 180.0);
   // The point at a pixel, or nothing when its range is invalid or too far from `z0`'s.
   auto point_at = [&](int x, int y, double z0, Eigen::Vector3d* p) {
@@ -110,8 +111,9 @@ RangeCloud MakeRangeCloud(const cv::Mat& depth, const RangeImager& range,
       Eigen::Vector3d sum = Eigen::Vector3d::Zero();
       Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
       int count = 0;
-      for (int dy = -radius; dy <= radius; dy += stride) {
-        for (int dx = -radius; dx <= radius; dx += stride) {
+      const int reach = (radius / stride) * stride;  // symmetric for any step
+      for (int dy = -reach; dy <= reach; dy += stride) {
+        for (int dx = -reach; dx <= reach; dx += stride) {
           Eigen::Vector3d q;
           if (!point_at(x + dx, y + dy, p.z(), &q)) continue;
           const Eigen::Vector3d d = q - p;
@@ -126,6 +128,10 @@ RangeCloud MakeRangeCloud(const cv::Mat& depth, const RangeImager& range,
       Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen;
       eigen.computeDirect(covariance);
       const double sigma = range.noise.Sigma(p.norm());
+      if (!(sigma > 0.0)) {
+        throw ConfigError(what + ": the range noise model gives sigma " + std::to_string(sigma) +
+                          " m at " + std::to_string(p.norm()) + " m; it must be positive");
+      }
       const double off_plane = std::sqrt(std::max(0.0, eigen.eigenvalues()[0]));
       if (off_plane > options.max_flatness_sigmas * sigma) continue;
       Eigen::Vector3d n = eigen.eigenvectors().col(0).normalized();

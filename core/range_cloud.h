@@ -28,7 +28,7 @@ struct RangeCloudOptions {
   // over 7 mm between pixels 4 apart tilts it by ~20 deg) and blends two planes at a crease.
   // Neighbours whose depth differs from the point's by more than max_neighbour_depth_ratio
   // of it are the other side of a depth edge and are not used: 0.05 across 4 px at 585 px
-  // focal length is a surface seen 86 deg from face-on, which is not resolved anyway. A
+  // focal length is a surface seen 82 deg from face-on, which is not resolved anyway. A
   // point needs two thirds of its window on its own surface.
   double max_neighbour_depth_ratio = 0.05;
   // ... and its window flat within this many range sigmas (the RMS distance of the window's

@@ -223,6 +223,51 @@ TEST(BundleAdjustmentTest, RelativePoseConstraintsPlaceTheFramesTheyJoin) {
   }
 }
 
+// A relative pose that the others contradict fails the chi-square gate and is dropped.
+TEST(BundleAdjustmentTest, ContradictedRelativePoseIsRejected) {
+  std::map<int, Eigen::Isometry3d> truth;
+  BundleAdjustmentProblem problem;
+  for (int frame = 0; frame < 5; ++frame) {
+    truth[frame] = PoseToIsometry((Vector6d() << 0.2 * frame, 0.05 * frame, 0.0, 0.1 * frame,
+                                   0.0, -0.05 * frame).finished());
+    problem.T_w_c[frame] = truth[frame];
+  }
+  std::mt19937 rng(8);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  const double sigma = 0.002;  // per component, m and rad
+  for (int i = 0; i < 5; ++i) {
+    for (int j = i + 1; j < 5; ++j) {
+      RelativePoseConstraint c;
+      c.frame_i = i;
+      c.frame_j = j;
+      Vector6d noise;
+      for (int k = 0; k < 6; ++k) noise[k] = sigma * normal(rng);
+      if (i == 1 && j == 3) noise[3] += 0.05;  // 5 cm off: 25 sigma
+      Eigen::Isometry3d D = Eigen::Isometry3d::Identity();
+      D.linear() = Eigen::AngleAxisd(noise.head<3>().norm(), noise.head<3>().normalized())
+                       .toRotationMatrix();
+      D.translation() = noise.tail<3>();
+      // Y = D T_sj_si with Y the truth's relative pose.
+      c.T_sj_si = D.inverse() * truth[j].inverse() * truth[i];
+      c.sqrt_information = Matrix6d::Identity() / sigma;
+      problem.relative_poses.push_back(c);
+    }
+  }
+  const BundleAdjustmentResult result =
+      SolveBundleAdjustment(problem, testing_ba::TestCamera(), BundleAdjustmentOptions());
+  ASSERT_TRUE(result.usable) << result.termination;
+  EXPECT_EQ(result.rejected_relative_poses, 1);
+  for (const auto& [frame, T] : truth) {
+    EXPECT_LT((result.T_w_c.at(frame).translation() - T.translation()).norm(), 0.005) << frame;
+  }
+  // With the gate off, the wrong term stays and pulls frame 3 by about a centimetre.
+  BundleAdjustmentOptions keep_all;
+  keep_all.rejection_chi2 = 0.0;
+  const BundleAdjustmentResult kept = SolveBundleAdjustment(problem, testing_ba::TestCamera(), keep_all);
+  EXPECT_EQ(kept.rejected_relative_poses, 0);
+  EXPECT_GT((kept.T_w_c.at(3).translation() - truth[3].translation()).norm(), 0.008);
+}
+
 TEST(BundleAdjustmentTest, QuaternionTangentIsHalfTheWorldRotationVector) {
   // The covariance conversion rests on this: EigenQuaternionManifold's delta rotates about
   // the world axis delta by 2 |delta|.

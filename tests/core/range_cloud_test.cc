@@ -117,6 +117,37 @@ TEST(RangeCloudTest, DepthEdgesInvalidPointsAndObliqueSurfacesAreLeftOut) {
   EXPECT_EQ(near_axis, 0);
 }
 
+TEST(RangeCloudTest, InterpolationRefusesCreasesAndDepthSpreads) {
+  const RangeImager range = Kinect();
+  // A corner: the planes z = 2 + x (left) and z = 2 - x (right) meet in a 90 deg crease
+  // 2 m ahead, along the image's middle column.
+  cv::Mat depth(480, 640, CV_32FC1);
+  for (int y = 0; y < 480; ++y) {
+    for (int x = 0; x < 640; ++x) {
+      const double u = (x - 320.0) / 585.0;  // x / z
+      depth.at<float>(y, x) = static_cast<float>(u < 0 ? 2.0 / (1.0 - u) : 2.0 / (1.0 + u));
+    }
+  }
+  const RangeCloud cloud =
+      MakeRangeCloud(depth, range, Eigen::Isometry3d::Identity(), RangeCloudOptions(), "corner");
+  Eigen::Vector3d q, normal;
+  double sigma = 0.0;
+  // Well inside either plane: its own surface and normal.
+  ASSERT_TRUE(cloud.Interpolate(Eigen::Vector3d(-0.4, 0.01, 1.6), 0.05, &q, &normal, &sigma));
+  EXPECT_LT((normal - Eigen::Vector3d(1, 0, -1).normalized()).norm(), 1e-3);
+  // At the crease the grid points' normals disagree by 90 deg (or the crease's own points
+  // are not flat): no surface there.
+  EXPECT_FALSE(cloud.Interpolate(Eigen::Vector3d(0.003, 0.01, 1.997), 0.05, &q, &normal, &sigma));
+  // A tight depth-spread limit refuses a slanted plane's four grid points, a loose one not.
+  const Eigen::Vector3d n = Eigen::Vector3d(0.6, 0.0, -0.8);
+  const RangeCloud slanted = MakeRangeCloud(PlaneDepth(range, n, -1.6), range,
+                                            Eigen::Isometry3d::Identity(), RangeCloudOptions(), "");
+  const Eigen::Vector3d p =
+      Eigen::Vector3d(0.05, 0.0, 1.0) * (-1.6 / n.dot(Eigen::Vector3d(0.05, 0, 1)));
+  EXPECT_TRUE(slanted.Interpolate(p, 0.05, &q, &normal, &sigma));
+  EXPECT_FALSE(slanted.Interpolate(p, 1e-4, &q, &normal, &sigma));
+}
+
 TEST(RangeCloudTest, WrongSizeOrBadOptionsAreErrors) {
   const RangeImager range = Kinect();
   try {
