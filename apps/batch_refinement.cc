@@ -34,8 +34,20 @@ Json BaOptionsToJson(const BundleAdjustmentOptions& options) {
 
 std::map<int, RangeCloud> LoadRangeClouds(const Dataset& dataset, const StoredBaProblem& stored,
                                           const RangeCloudOptions& options,
-                                          const std::string& command) {
+                                          const std::string& command, int* left_out) {
   constexpr double kSameTimestampS = 1e-4;
+  const PinholeCamera& a = dataset.rig().colour;
+  const PinholeCamera& b = stored.camera;
+  if (a.width != b.width || a.height != b.height || std::abs(a.fx - b.fx) > 1e-6 ||
+      std::abs(a.fy - b.fy) > 1e-6 || std::abs(a.cx - b.cx) > 1e-6 ||
+      std::abs(a.cy - b.cy) > 1e-6) {
+    throw DataError(dataset.directory() + ": its colour camera (" + std::to_string(a.fx) + ", " +
+                    std::to_string(a.fy) + ", " + std::to_string(a.cx) + ", " +
+                    std::to_string(a.cy) + ") is not the run's (" + std::to_string(b.fx) + ", " +
+                    std::to_string(b.fy) + ", " + std::to_string(b.cx) + ", " +
+                    std::to_string(b.cy) + "): another calibration or dataset");
+  }
+  *left_out = 0;
   std::map<int, RangeCloud> clouds;
   for (const auto& [frame, T_w_c] : stored.problem.T_w_c) {
     const auto stamp = stored.timestamps.find(frame);
@@ -50,6 +62,7 @@ std::map<int, RangeCloud> LoadRangeClouds(const Dataset& dataset, const StoredBa
                    "%s: warning: frame %d left out of the depth alignment: no frame of %s at "
                    "its timestamp\n",
                    command.c_str(), frame, dataset.directory().c_str());
+      ++*left_out;
       continue;
     }
     try {
@@ -60,7 +73,13 @@ std::map<int, RangeCloud> LoadRangeClouds(const Dataset& dataset, const StoredBa
     } catch (const DataError& e) {
       std::fprintf(stderr, "%s: warning: frame %d left out of the depth alignment: %s\n",
                    command.c_str(), frame, e.what());
+      ++*left_out;
     }
+  }
+  if (clouds.empty() && !stored.problem.T_w_c.empty()) {
+    throw DataError(dataset.directory() + ": none of the run's " +
+                    std::to_string(stored.problem.T_w_c.size()) +
+                    " selected frames found at their timestamps: not the run's dataset");
   }
   return clouds;
 }
@@ -76,7 +95,8 @@ Json DepthAlignmentOptionsToJson(const DepthAlignmentOptions& options,
       .Set("max_normal_angle_deg", options.max_normal_angle_deg)
       .Set("huber_sigmas", options.huber_sigmas)
       .Set("min_overlap", options.min_overlap)
-      .Set("max_robust_sigma", options.max_robust_sigma);
+      .Set("max_robust_sigma", options.max_robust_sigma)
+      .Set("max_partners", options.max_partners);
 }
 
 namespace {
@@ -148,6 +168,9 @@ RefinementOutcome RefineToFiles(const StoredBaProblem& stored, const SlamEstimat
                              .Set("rounds", stats.rounds)
                              .Set("pairs_tried", stats.pairs_tried)
                              .Set("constraints", stats.constraints)
+                             .Set("rejected_constraints", depth_aligned.rejected_relative_poses)
+                             .Set("frames", static_cast<int>(depth->clouds.size()))
+                             .Set("frames_left_out", depth->frames_left_out)
                              .Set("mean_overlap", stats.mean_overlap)
                              .Set("seconds_alignment", stats.seconds_alignment)
                              .Set("seconds_ba", stats.seconds_ba)

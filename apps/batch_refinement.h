@@ -24,17 +24,20 @@ struct RefinementOutcome {
 // The selected frames' range clouds (by frame id) and how to align them.
 struct DepthRefinement {
   std::map<int, RangeCloud> clouds;
+  int frames_left_out = 0;  // selected frames without a cloud (LoadRangeClouds)
   DepthAlignmentOptions options;
 };
 
 // The range clouds of the problem's frames, read again from `dataset`: each pose is matched
 // to the dataset's frame with its timestamp (within 0.1 ms), so that a dataset opened
 // without the run's --first/--last/--stride still gives the right frames. A frame that is
-// not found or cannot be read is left out with a warning on stderr (prefixed by `command`);
-// the refinement goes on without it.
+// not found or cannot be read is left out with a warning on stderr (prefixed by `command`)
+// and counted in *left_out; the refinement goes on without it. Throws DataError when the
+// dataset's colour camera is not the problem's (another calibration) or no frame matches
+// (another dataset).
 std::map<int, RangeCloud> LoadRangeClouds(const Dataset& dataset, const StoredBaProblem& stored,
                                           const RangeCloudOptions& options,
-                                          const std::string& command);
+                                          const std::string& command, int* left_out);
 
 // Bundle-adjusts `stored` (started from its poses and features) and compares the result with
 // `filter_estimate`: the smoother of the filter's own problem, the reference check. With

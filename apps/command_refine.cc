@@ -72,12 +72,16 @@ int RefineCommand(const CommandArgs& args) {
   DepthRefinement depth;
   depth.options = options.depth_alignment;
   depth.options.num_threads = ba.num_threads;
+  if (!flags.Has("dataset") && (flags.Has("format") || flags.Has("calib"))) {
+    throw ConfigError("--format and --calib describe --dataset, which is not given");
+  }
   if (flags.Has("dataset") && depth.options.rounds > 0) {
     DatasetOptions dataset_options = options.dataset_options;
     dataset_options.format = flags.GetString("format", dataset_options.format);
     dataset_options.calib_file = flags.GetString("calib", dataset_options.calib_file);
     const auto dataset = OpenDataset(flags.Require("dataset"), dataset_options);
-    depth.clouds = LoadRangeClouds(*dataset, stored, options.range_cloud, "refine");
+    depth.clouds =
+        LoadRangeClouds(*dataset, stored, options.range_cloud, "refine", &depth.frames_left_out);
   }
   PrepareOutputDirectory(out);
   const std::string gt = JoinPath(run, "groundtruth.tum");

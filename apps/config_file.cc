@@ -163,6 +163,7 @@ void ApplyConfigFile(const std::string& path, RunOptions* o) {
          x->Double("huber_sigmas", &d.huber_sigmas);
          x->Double("min_overlap", &d.min_overlap);
          x->Double("max_robust_sigma", &d.max_robust_sigma);
+         x->Int("max_partners", &d.max_partners);
        }},
   };
   const cv::FileNode root = fs.root();

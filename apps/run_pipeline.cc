@@ -217,7 +217,8 @@ RunSummary RunPipeline(const RunOptions& options, const std::function<bool()>& s
       // Pairs align independently: any number of threads gives the same constraints.
       depth.options.num_threads = options.threads > 0 ? options.threads : cores;
       if (depth.options.rounds > 0) {
-        depth.clouds = LoadRangeClouds(*dataset, stored, options.range_cloud, "run");
+        depth.clouds =
+            LoadRangeClouds(*dataset, stored, options.range_cloud, "run", &depth.frames_left_out);
       }
       const RefinementOutcome refined =
           RefineToFiles(stored, estimate, ba, out,

@@ -4,6 +4,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <regex>
 #include <sstream>
 
 #include <csignal>
@@ -92,7 +93,10 @@ TEST_F(RunPipelineTest, RefineNowAndRefineLaterFromTheStoredProblemAgree) {
   EXPECT_LT(summary.ate_refined_m, 0.02);
   const std::string run_report = ReadFile(out / "report.json");
   EXPECT_NE(run_report.find("\"filter_vs_smoother\""), std::string::npos);
-  EXPECT_NE(run_report.find("\"depth_alignment\""), std::string::npos);
+  std::smatch constraints;
+  ASSERT_TRUE(std::regex_search(run_report, constraints, std::regex("\"constraints\": ([0-9]+)")))
+      << run_report;
+  EXPECT_GT(std::stoi(constraints[1]), 0);
   const fs::path later = root_ / "refined_later";
   const testing_apps::CommandResult later_run =
       testing_apps::RunIeslam("refine --run " + out.string() + " --dataset " +
@@ -110,6 +114,18 @@ TEST_F(RunPipelineTest, RefineNowAndRefineLaterFromTheStoredProblemAgree) {
       EvaluateTrajectoryFiles(gt, (features_only / "refined.tum").string(), EvaluationOptions())
           .ate.translation.rmse;
   EXPECT_LT(summary.ate_refined_m, ate_features_only);
+  // Another dataset (another camera) is a data error naming it; --calib without --dataset,
+  // a usage error.
+  const std::string tum = std::string(IESLAM_SHARED_DATA_DIR) + "/tum-fr1-desk-9";
+  const testing_apps::CommandResult other =
+      testing_apps::RunIeslam("refine --run " + out.string() + " --dataset " + tum + " --output " +
+                              (root_ / "refined_other").string());
+  EXPECT_EQ(other.exit_code, 3) << other.output;
+  EXPECT_NE(other.output.find("not the run's"), std::string::npos) << other.output;
+  const testing_apps::CommandResult calib_only =
+      testing_apps::RunIeslam("refine --run " + out.string() + " --calib x.yaml --output " +
+                              (root_ / "refined_other").string());
+  EXPECT_EQ(calib_only.exit_code, 2) << calib_only.output;
   // A run directory without a stored problem is a data error (exit 3) naming the file.
   const testing_apps::CommandResult missing = testing_apps::RunIeslam(
       "refine --run " + later.string() + " --output " + (root_ / "x").string());
