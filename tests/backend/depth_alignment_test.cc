@@ -7,22 +7,12 @@
 #include <Eigen/Eigenvalues>
 
 #include "core/error.h"
+#include "core/kinect_range_imager.h"
 
 namespace ieslam {
 namespace {
 
 constexpr double kDeg = M_PI / 180.0;
-
-RangeImager Kinect() {
-  RangeImager range;
-  range.camera.width = 640;
-  range.camera.height = 480;
-  range.camera.fx = range.camera.fy = 585.0;
-  range.camera.cx = 320.0;
-  range.camera.cy = 240.0;
-  range.noise = {0.0002, 0.0, 0.0016};
-  return range;
-}
 
 // An axis-aligned box [lo, hi]: the ray's first entry (outside) or its exit (inside), by slabs.
 double RayBox(const Eigen::Vector3d& o, const Eigen::Vector3d& d, const Eigen::Vector3d& lo,
@@ -96,7 +86,7 @@ RangeCloud Cloud(const RangeImager& range, const Eigen::Isometry3d& T_w_r,
 }
 
 TEST(DepthAlignmentTest, PairAlignmentRecoversTheRelativePose) {
-  const RangeImager range = Kinect();
+  const RangeImager range = testing_core::KinectRangeImager();
   const Eigen::Isometry3d T_w_a = Pose(0.0, 0.0, 0.0, 0.0, 0.0);
   const Eigen::Isometry3d T_w_b = Pose(0.15, -0.05, 0.1, 8.0, -4.0);
   const RangeCloud a = Cloud(range, T_w_a), b = Cloud(range, T_w_b);
@@ -117,7 +107,7 @@ TEST(DepthAlignmentTest, PairAlignmentRecoversTheRelativePose) {
 }
 
 TEST(DepthAlignmentTest, NoisyDepthStaysWithinTheInformationItReports) {
-  const RangeImager range = Kinect();
+  const RangeImager range = testing_core::KinectRangeImager();
   std::mt19937 rng(5);
   const Eigen::Isometry3d T_w_a = Pose(0.0, 0.0, 0.0, 0.0, 0.0);
   const Eigen::Isometry3d T_w_b = Pose(-0.1, 0.05, 0.2, -10.0, 3.0);
@@ -143,7 +133,7 @@ TEST(DepthAlignmentTest, NoisyDepthStaysWithinTheInformationItReports) {
 }
 
 TEST(DepthAlignmentTest, APlaneLeavesItsOwnDirectionsUndetermined) {
-  RangeImager range = Kinect();
+  RangeImager range = testing_core::KinectRangeImager();
   // Close to the far wall (z = 2.5), looking straight at it: only the wall is seen.
   const Eigen::Isometry3d T_w_a = Pose(0.0, -0.3, 1.7, 0.0, 20.0);
   const Eigen::Isometry3d T_w_b = Pose(0.05, -0.28, 1.75, 2.0, 20.0);
@@ -159,7 +149,7 @@ TEST(DepthAlignmentTest, APlaneLeavesItsOwnDirectionsUndetermined) {
 }
 
 TEST(DepthAlignmentTest, CloudsThatShareNothingGiveNoConstraint) {
-  const RangeImager range = Kinect();
+  const RangeImager range = testing_core::KinectRangeImager();
   std::map<int, RangeCloud> clouds;
   std::map<int, Eigen::Isometry3d> T_w_c;
   T_w_c[0] = Pose(0.0, 0.0, 0.0, 0.0, 0.0);
@@ -174,7 +164,7 @@ TEST(DepthAlignmentTest, CloudsThatShareNothingGiveNoConstraint) {
 // off (the filter's keyframes on 7scenes-dev differ from the bundle adjustment's by 1 cm and
 // 0.3 deg RMS); with no feature observations at all the clouds alone bring them back.
 TEST(DepthAlignmentTest, RefinementWithCloudsAloneRecoversThePoses) {
-  const RangeImager range = Kinect();
+  const RangeImager range = testing_core::KinectRangeImager();
   std::map<int, Eigen::Isometry3d> truth = {{0, Pose(0.0, 0.0, 0.0, 0.0, 0.0)},
                                             {3, Pose(0.2, 0.0, 0.1, 10.0, -3.0)},
                                             {7, Pose(0.4, -0.1, 0.3, 20.0, 2.0)},
@@ -221,7 +211,7 @@ TEST(DepthAlignmentTest, RefinementWithCloudsAloneRecoversThePoses) {
 // The clouds are in the range imager's frame, the poses the colour camera's: with the
 // imager 2.5 cm and 3 deg off the camera the refinement still places the camera poses.
 TEST(DepthAlignmentTest, RangeImagerOffTheColourCameraIsAccountedFor) {
-  const RangeImager range = Kinect();
+  const RangeImager range = testing_core::KinectRangeImager();
   Eigen::Isometry3d T_c_r = Eigen::Isometry3d::Identity();
   T_c_r.linear() =
       Eigen::AngleAxisd(3.0 * kDeg, Eigen::Vector3d(0.3, 1.0, 0.2).normalized()).toRotationMatrix();

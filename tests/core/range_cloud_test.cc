@@ -5,20 +5,10 @@
 #include <cmath>
 
 #include "core/error.h"
+#include "core/kinect_range_imager.h"
 
 namespace ieslam {
 namespace {
-
-RangeImager Kinect() {
-  RangeImager range;
-  range.camera.width = 640;
-  range.camera.height = 480;
-  range.camera.fx = range.camera.fy = 585.0;
-  range.camera.cx = 320.0;
-  range.camera.cy = 240.0;
-  range.noise = {0.0002, 0.0, 0.0016};
-  return range;
-}
 
 // Depth (z) of the plane n . p = offset seen through each pixel; 0 where it is behind.
 cv::Mat PlaneDepth(const RangeImager& range, const Eigen::Vector3d& n, double offset) {
@@ -34,7 +24,7 @@ cv::Mat PlaneDepth(const RangeImager& range, const Eigen::Vector3d& n, double of
 }
 
 TEST(RangeCloudTest, PlaneGivesItsPointsNormalsAndNoise) {
-  const RangeImager range = Kinect();
+  const RangeImager range = testing_core::KinectRangeImager();
   const Eigen::Vector3d n = Eigen::Vector3d(0.2, -0.1, -1.0).normalized();  // faces the camera
   const double offset = -2.0;  // n . p = -2: about 2 m away
   RangeCloudOptions options;
@@ -64,7 +54,7 @@ TEST(RangeCloudTest, PlaneGivesItsPointsNormalsAndNoise) {
 }
 
 TEST(RangeCloudTest, InterpolationFollowsThePlaneBetweenGridPoints) {
-  const RangeImager range = Kinect();
+  const RangeImager range = testing_core::KinectRangeImager();
   const Eigen::Vector3d n = Eigen::Vector3d(0.3, 0.2, -1.0).normalized();
   const RangeCloud cloud =
       MakeRangeCloud(PlaneDepth(range, n, -1.5), range, Eigen::Isometry3d::Identity(),
@@ -90,7 +80,7 @@ TEST(RangeCloudTest, InterpolationFollowsThePlaneBetweenGridPoints) {
 }
 
 TEST(RangeCloudTest, DepthEdgesInvalidPointsAndObliqueSurfacesAreLeftOut) {
-  const RangeImager range = Kinect();
+  const RangeImager range = testing_core::KinectRangeImager();
   cv::Mat depth(480, 640, CV_32FC1, cv::Scalar(2.0f));
   depth.colRange(320, 640).setTo(1.0f);  // a step of 1 m at column 320
   depth.at<float>(100, 100) = 0.0f;      // no measurement
@@ -118,7 +108,7 @@ TEST(RangeCloudTest, DepthEdgesInvalidPointsAndObliqueSurfacesAreLeftOut) {
 }
 
 TEST(RangeCloudTest, InterpolationRefusesCreasesAndDepthSpreads) {
-  const RangeImager range = Kinect();
+  const RangeImager range = testing_core::KinectRangeImager();
   // A corner: the planes z = 2 + x (left) and z = 2 - x (right) meet in a 90 deg crease
   // 2 m ahead, along the image's middle column.
   cv::Mat depth(480, 640, CV_32FC1);
@@ -149,7 +139,7 @@ TEST(RangeCloudTest, InterpolationRefusesCreasesAndDepthSpreads) {
 }
 
 TEST(RangeCloudTest, WrongSizeOrBadOptionsAreErrors) {
-  const RangeImager range = Kinect();
+  const RangeImager range = testing_core::KinectRangeImager();
   try {
     MakeRangeCloud(cv::Mat(240, 320, CV_32FC1, cv::Scalar(1.0f)), range,
                    Eigen::Isometry3d::Identity(), RangeCloudOptions(), "frame 7");
