@@ -134,7 +134,15 @@ RefinementOutcome RefineToFiles(const StoredBaProblem& stored, const SlamEstimat
     depth_aligned = SolveWithDepthAlignment(problem, stored.camera, depth->clouds, options,
                                             depth->options, &stats);
   }
-  const BundleAdjustmentResult& refined = align ? depth_aligned : smoothed;
+  // A depth-aligned solve that failed leaves refined.tum to the bundle adjustment.
+  const bool aligned = align && depth_aligned.usable;
+  if (align && !aligned) {
+    std::fprintf(stderr,
+                 "warning: the depth-aligned refinement failed (%s); refined.tum is the "
+                 "bundle adjustment of the features\n",
+                 depth_aligned.termination.c_str());
+  }
+  const BundleAdjustmentResult& refined = aligned ? depth_aligned : smoothed;
   outcome.seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   Trajectory trajectory;
@@ -176,6 +184,7 @@ RefinementOutcome RefineToFiles(const StoredBaProblem& stored, const SlamEstimat
                              .Set("seconds_ba", stats.seconds_ba)
                              .Set("change_from_ba_translation_rmse_m", change.translation_m.rmse)
                              .Set("change_from_ba_rotation_rmse_deg", change.rotation_deg.rmse)
+                             .Set("used", aligned)
                              .Set("ba", solver(depth_aligned));
     outcome.comparison.Set("depth_alignment", summary);
   }
