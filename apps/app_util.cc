@@ -8,6 +8,7 @@
 #include <unistd.h>
 
 #include "core/error.h"
+#include "core/stopwatch.h"
 
 namespace ieslam {
 
@@ -60,8 +61,7 @@ Progress::Progress(std::string label, int total, bool quiet)
 
 void Progress::Update(int done, const std::string& extra) {
   if (quiet_ || total_ <= 0) return;
-  const double seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+  const double seconds = SecondsSince(start_);
   const double rate = seconds > 0.0 ? done / seconds : 0.0;
   const double eta = rate > 0.0 ? (total_ - done) / rate : 0.0;
   char line[256];

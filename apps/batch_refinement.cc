@@ -8,6 +8,7 @@
 #include "backend/evaluation.h"
 #include "core/error.h"
 #include "core/file_util.h"
+#include "core/stopwatch.h"
 #include "core/trajectory.h"
 
 namespace ieslam {
@@ -143,8 +144,7 @@ RefinementOutcome RefineToFiles(const StoredBaProblem& stored, const SlamEstimat
                  depth_aligned.termination.c_str());
   }
   const BundleAdjustmentResult& refined = aligned ? depth_aligned : smoothed;
-  outcome.seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  outcome.seconds = SecondsSince(start);
   Trajectory trajectory;
   for (const auto& [frame, T_w_c] : refined.T_w_c) {
     trajectory.push_back({stored.timestamps.at(frame), T_w_c});

@@ -14,13 +14,10 @@
 #include "backend/filter_smoother_comparison.h"
 #include "core/error.h"
 #include "core/file_util.h"
+#include "core/stopwatch.h"
 
 namespace ieslam {
 namespace {
-
-double SecondsSince(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
 
 // One log line per selector decision, for --verbose.
 std::string DescribeDecision(const SelectionDecision& d) {

@@ -15,6 +15,7 @@
 #include "backend/ba_residuals.h"
 #include "backend/information_filter.h"
 #include "core/error.h"
+#include "core/stopwatch.h"
 
 namespace ieslam {
 namespace {
@@ -38,10 +39,6 @@ double SixDofGate(double gate3) {
     (tail6(mid) > p ? lo : hi) = mid;
   }
   return 0.5 * (lo + hi);
-}
-
-double SecondsSince(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
 // The parameter blocks Ceres works on, all in one buffer laid out in frame-id then

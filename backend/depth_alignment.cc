@@ -9,13 +9,10 @@
 #include <Eigen/Eigenvalues>
 
 #include "core/error.h"
+#include "core/stopwatch.h"
 
 namespace ieslam {
 namespace {
-
-double SecondsSince(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
 
 // The Gauss-Newton system of the point-to-plane residuals r = n_t . (Y p_s - q_t) at Y, in
 // the chart Y <- [Exp(omega), v] Y, whose Jacobian is ((Y p_s) x n_t, n_t), and the cost

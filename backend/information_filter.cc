@@ -13,14 +13,11 @@
 #include <glog/logging.h>
 
 #include "core/error.h"
+#include "core/stopwatch.h"
 
 namespace ieslam {
 
 namespace {
-
-double SecondsSince(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
 
 std::string FrameName(int frame_id) {
   return frame_id < 0 ? std::string("candidate frame") : "frame " + std::to_string(frame_id);

@@ -12,6 +12,7 @@
 #include <glog/logging.h>
 
 #include "backend/sparse_cholesky_impl.h"
+#include "core/stopwatch.h"
 
 namespace ieslam {
 
@@ -60,10 +61,6 @@ Eigen::SparseMatrix<double> UpperColumnStorage::Full() const {
 }
 
 namespace {
-
-double SecondsSince(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
 
 // C with C C^T = M for a symmetric positive semidefinite 3x3 M (Cholesky when M is
 // definite; otherwise from its eigen-decomposition, negative rounding clipped).

@@ -8,15 +8,9 @@
 #include <opencv2/core.hpp>
 
 #include "core/error.h"
+#include "core/stopwatch.h"
 
 namespace ieslam {
-namespace {
-
-double SecondsSince(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
-
-}  // namespace
 
 bool PrefetchOptions::Check(std::string* why) const {
   auto fail = [why](const std::string& message) {

@@ -6,14 +6,9 @@
 
 #include <glog/logging.h>
 
+#include "core/stopwatch.h"
+
 namespace ieslam {
-namespace {
-
-double SecondsSince(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
-
-}  // namespace
 
 bool FrontendOptions::Check(std::string* why) const {
   return features.Check(why) && lifting.Check(why) && matching.Check(why) &&

@@ -8,13 +8,10 @@
 #include <opencv2/core.hpp>
 
 #include "core/error.h"
+#include "core/stopwatch.h"
 
 namespace ieslam {
 namespace {
-
-double SecondsSince(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
 
 FeatureObservation ObservationOf(const LiftedPoint& point, int64_t id) {
   FeatureObservation obs;

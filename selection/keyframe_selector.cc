@@ -10,15 +10,12 @@
 
 #include "core/error.h"
 #include "core/pose.h"
+#include "core/stopwatch.h"
 
 namespace ieslam {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-double Since(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
-}
 
 // The larger of the rotation angle of `T` and its parallax angle atan(|t| / median range of
 // the observations), in degrees.
@@ -60,12 +57,12 @@ class Run {
     try {
       filter_->AddPose(c.frame, InitialPose(c), c.observations);
     } catch (const DataError& e) {
-      result_->seconds_filter += Since(start);
+      result_->seconds_filter += SecondsSince(start);
       Place(c, false);
       result_->frames[c.frame].skip_reason = e.what();
       return false;
     }
-    result_->seconds_filter += Since(start);
+    result_->seconds_filter += SecondsSince(start);
     source_->Commit(c);
     result_->selected.push_back(c.frame);
     result_->observations[c.frame] = c.observations;
@@ -89,7 +86,7 @@ class Run {
   CandidateFrame Prepare(int frame) {
     const auto start = Clock::now();
     CandidateFrame c = source_->Prepare(frame);
-    result_->seconds_selection += Since(start);
+    result_->seconds_selection += SecondsSince(start);
     Place(c, true);
     return c;
   }
@@ -102,7 +99,7 @@ class Run {
     const CandidateFrame c = source_->PrepareFirst(frame);
     const auto start = Clock::now();
     filter_->AddFirstPose(frame, IsometryToPose(c.T_base_c), c.observations);
-    result_->seconds_filter += Since(start);
+    result_->seconds_filter += SecondsSince(start);
     source_->Commit(c);
     result_->selected.push_back(frame);
     result_->observations[frame] = c.observations;
@@ -179,14 +176,14 @@ class Run {
       decision->map_gains.push_back(std::isfinite(gain) ? terms.map : gain);
     }
     decision->scored_features = equal_measurements ? static_cast<int>(common.size()) : -1;
-    result_->seconds_selection += Since(start);
+    result_->seconds_selection += SecondsSince(start);
   }
 
   // Registers a frame against the last base frame only, which places it.
   CandidateFrame PrepareAgainstLastBase(int frame) {
     const auto start = Clock::now();
     const CandidateFrame c = source_->PrepareAgainst(frame, last_base_);
-    result_->seconds_selection += Since(start);
+    result_->seconds_selection += SecondsSince(start);
     Place(c, true);
     return c;
   }
@@ -388,7 +385,7 @@ SelectionResult KeyframeSelector::Run(FrameSource* source, InformationFilter* fi
       }
       const auto start = Clock::now();
       const CandidateFrame c = source->PrepareAgainst(f, last);
-      result.seconds_selection += Since(start);
+      result.seconds_selection += SecondsSince(start);
       FramePlacement& placement = result.frames[f];
       if (!c.registered) {
         placement.skip_reason = c.reason;
