@@ -1,6 +1,7 @@
 #include "apps/config_file.h"
 
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <functional>
 #include <map>
@@ -9,7 +10,6 @@
 #include <opencv2/core.hpp>
 
 #include "core/error.h"
-#include "core/file_util.h"
 #include "core/yaml_text.h"
 
 namespace ieslam {
@@ -66,8 +66,15 @@ class Section {
 }  // namespace
 
 void ApplyConfigFile(const std::string& path, RunOptions* o) {
-  RequireFile(path, "config file");
+  // A config file that is not there or not readable is bad usage (exit 2), as a bad value
+  // in it is.
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) throw ConfigError("config file not found: " + path);
+  if (!std::filesystem::is_regular_file(path, ec)) {
+    throw ConfigError("config file is not a regular file: " + path);
+  }
   std::ifstream in(path, std::ios::binary);
+  if (!in) throw ConfigError("config file cannot be read (permissions?): " + path);
   std::ostringstream text;
   text << in.rdbuf();
   const cv::FileStorage fs = OpenYamlMap(text.str(), path);

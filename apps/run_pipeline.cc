@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <thread>
 
+#include <glog/logging.h>
 #include <opencv2/core.hpp>
 
 #include "apps/app_util.h"
@@ -33,6 +34,14 @@ std::string DescribeDecision(const SelectionDecision& d) {
   line += " -> added";
   for (int frame : d.added) line += " " + std::to_string(frame);
   return line;
+}
+
+// Frames by their index in the dataset (before --first/--last/--stride), as
+// selected_frames.txt and frames_skipped name them.
+std::vector<int> SourceIndices(const Dataset& dataset, const std::vector<int>& frames) {
+  std::vector<int> indices;
+  for (const int frame : frames) indices.push_back(dataset.info(frame).source_index);
+  return indices;
 }
 
 // Threads that load and process frames ahead of the selector: none in the deterministic
@@ -72,32 +81,60 @@ bool RunOptions::Check(std::string* why) const {
     if (why != nullptr) *why = "--threads must be >= 0";
     return false;
   }
+  if (refine && selector.kind == SelectorKind::kDeadReckoning) {
+    if (why != nullptr) {
+      *why = "--refine needs a filter: not available with --selector deadreckoning";
+    }
+    return false;
+  }
   return dataset_options.Check(why) && source.Check(why) && selector.Check(why) &&
          filter.Check(why) && map.Check(why) && range_cloud.Check(why) &&
          depth_alignment.Check(why);
 }
 
+RgbdSourceOptions RunOptions::SourceOptionsUsed() const {
+  RgbdSourceOptions used = source;
+  used.frontend.registration.seed = seed;
+  used.database.seed = seed;
+  used.prefetch.workers = PrefetchWorkers(threads);
+  return used;
+}
+
 Json RunOptions::ToJson() const {
+  const RgbdSourceOptions source = SourceOptionsUsed();
   const FeatureOptions& f = source.frontend.features;
+  const LiftingOptions& l = source.frontend.lifting;
   const RegistrationOptions& r = source.frontend.registration;
   Json json = Json::Object();
   json.Set("dataset", DatasetOptionsToJson(dataset_options));
   json["features"]
       .Set("max_features", f.max_features)
       .Set("contrast_threshold", f.contrast_threshold)
+      .Set("edge_threshold", f.edge_threshold)
       .Set("octave_layers", f.octave_layers)
       .Set("image_scale", f.image_scale);
   json["matching"].Set("ratio", source.frontend.matching.ratio).Set("mutual", source.frontend.matching.mutual);
   json["lifting"]
-      .Set("window_radius", source.frontend.lifting.window_radius)
-      .Set("sigma_multiplier", source.frontend.lifting.sigma_multiplier);
+      .Set("window_radius", l.window_radius)
+      .Set("sigma_multiplier", l.sigma_multiplier)
+      .Set("footprint_multiplier", l.footprint_multiplier)
+      .Set("edge_sigma_multiplier", l.edge_sigma_multiplier)
+      .Set("min_valid_in_window", l.min_valid_in_window);
   json["registration"]
       .Set("inlier_threshold_m", r.inlier_threshold_m)
       .Set("max_iterations", r.max_iterations)
+      .Set("probability", r.probability)
       .Set("min_inliers", r.min_inliers)
+      .Set("min_spread_m", r.min_spread_m)
       .Set("inlier_chi2", r.inlier_chi2)
       .Set("use_point_covariances", r.use_point_covariances)
       .Set("seed", static_cast<int64_t>(r.seed));
+  json["database"]
+      .Set("trees", source.database.trees)
+      .Set("checks", source.database.checks)
+      .Set("neighbours", source.database.neighbours)
+      .Set("ratio", source.database.ratio)
+      .Set("seed", static_cast<int64_t>(source.database.seed));
   json["source"]
       .Set("max_base_candidates", source.max_base_candidates)
       .Set("max_new_features_per_frame", source.max_new_features_per_frame)
@@ -128,11 +165,7 @@ RunSummary RunPipeline(const RunOptions& options, const std::function<bool()>& s
   const auto dataset = OpenDataset(options.dataset, options.dataset_options);
   PrepareOutputDirectory(options.output);
 
-  RgbdSourceOptions source_options = options.source;
-  source_options.frontend.registration.seed = options.seed;
-  source_options.database.seed = options.seed;
-  source_options.prefetch.workers = PrefetchWorkers(options.threads);
-  RgbdFrameSource source(*dataset, source_options);
+  RgbdFrameSource source(*dataset, options.SourceOptionsUsed());
   InformationFilter filter(options.filter, dataset->rig().colour);
   Progress progress("run", dataset->size(), options.quiet);
   const SelectionResult selection = KeyframeSelector(options.selector).Run(
@@ -160,7 +193,8 @@ RunSummary RunPipeline(const RunOptions& options, const std::function<bool()>& s
     if (poses[f]) {
       trajectory.push_back({dataset->info(f).timestamp, *poses[f]});
     } else {
-      summary.frames_skipped.emplace_back(f, selection.frames[f].skip_reason);
+      summary.frames_skipped.emplace_back(dataset->info(f).source_index,
+                                          selection.frames[f].skip_reason);
     }
   }
   WarnAboutSkippedFrames(summary.frames_skipped);
@@ -190,9 +224,8 @@ RunSummary RunPipeline(const RunOptions& options, const std::function<bool()>& s
   // this run again later; with --refine, refined now.
   Json comparison, pose_sigmas;
   double ba_seconds = 0.0, covariance_seconds = 0.0;
-  if (options.refine && !selection.chained_T_w_c.empty()) {
-    throw ConfigError("--refine needs a filter: not available with --selector deadreckoning");
-  }
+  CHECK(!options.refine || selection.chained_T_w_c.empty())
+      << "RunOptions::Check passed --refine without a filter";
   if (selection.chained_T_w_c.empty() && filter.num_poses() > 0) {
     StoredBaProblem stored;
     stored.problem = MakeProblemFromFilter(filter, selection.observations);
@@ -275,20 +308,21 @@ RunSummary RunPipeline(const RunOptions& options, const std::function<bool()>& s
       .Set("fetch_wall", t.fetch_wall_s);
   if (options.refine) report["seconds"].Set("ba", ba_seconds);
   if (has_gt) {
-    Json& ate = report["ate_rmse_m"];  // only what could be computed
+    Json ate = Json::Object();  // only what could be computed; absent when nothing could
     if (summary.ate_keyframes_m >= 0.0) ate.Set("keyframes", summary.ate_keyframes_m);
     if (summary.ate_trajectory_m >= 0.0) ate.Set("trajectory", summary.ate_trajectory_m);
     if (options.refine && summary.ate_refined_m >= 0.0) ate.Set("refined", summary.ate_refined_m);
+    if (!ate.empty()) report.Set("ate_rmse_m", ate);
   }
   if (options.refine) report.Set("filter_vs_smoother", comparison);
   if (pose_sigmas.is_array()) report.Set("keyframe_sigmas", pose_sigmas);
   Json decisions = Json::Array();
   for (const SelectionDecision& d : selection.decisions) {
     decisions.Push(Json::Object()
-                       .Set("candidates", Json::ArrayOf(d.candidates))
+                       .Set("candidates", Json::ArrayOf(SourceIndices(*dataset, d.candidates)))
                        .Set("gains", Json::ArrayOf(d.gains))
                        .Set("map_gains", Json::ArrayOf(d.map_gains))
-                       .Set("added", Json::ArrayOf(d.added))
+                       .Set("added", Json::ArrayOf(SourceIndices(*dataset, d.added)))
                        .Set("reason", d.reason));
   }
   report.Set("decisions", decisions);

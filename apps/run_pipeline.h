@@ -37,6 +37,9 @@ struct RunOptions {
   bool write_map = true;
 
   bool Check(std::string* why) const;
+  // The front end's options as the run uses them: `source` with the run's seed (RANSAC's
+  // and the matcher's) and its prefetch workers. The report shows these.
+  RgbdSourceOptions SourceOptionsUsed() const;
   Json ToJson() const;
 };
 

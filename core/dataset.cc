@@ -98,16 +98,18 @@ Frame Dataset::Load(int i) const {
   frame.info = frames_[i];
   const FrameInfo& info = frame.info;
 
-  frame.colour = ReadImage(info.colour_path, cv::IMREAD_COLOR, "colour image", i);
-  RequireSize(frame.colour, rig_.colour, info.colour_path, "colour image", rig_.name, i);
+  // Messages name the frame by its index in the dataset, as selected_frames.txt does.
+  const int n = info.source_index;
+  frame.colour = ReadImage(info.colour_path, cv::IMREAD_COLOR, "colour image", n);
+  RequireSize(frame.colour, rig_.colour, info.colour_path, "colour image", rig_.name, n);
 
-  const cv::Mat raw = ReadImage(info.depth_path, cv::IMREAD_UNCHANGED, "range image", i);
+  const cv::Mat raw = ReadImage(info.depth_path, cv::IMREAD_UNCHANGED, "range image", n);
   if (raw.type() != CV_16UC1) {
-    throw DataError("frame " + std::to_string(i) + ": range image " + info.depth_path +
+    throw DataError("frame " + std::to_string(n) + ": range image " + info.depth_path +
                     " must be 16-bit single-channel, got " + std::to_string(raw.elemSize1() * 8) +
                     "-bit with " + std::to_string(raw.channels()) + " channel(s)");
   }
-  RequireSize(raw, rig_.range.camera, info.depth_path, "range image", rig_.name, i);
+  RequireSize(raw, rig_.range.camera, info.depth_path, "range image", rig_.name, n);
   frame.depth = RangeImageToMetres(raw, rig_.range);
   return frame;
 }

@@ -84,7 +84,11 @@ void Json::DumpTo(std::string* out, int indent, int depth) const {
       }
       char buffer[32];
       const auto result = std::to_chars(buffer, buffer + sizeof(buffer), double_);
-      *out += std::string(buffer, result.ptr);
+      const std::string number(buffer, result.ptr);
+      *out += number;
+      // A double stays one when read back: "3" would come back as an integer in Python's
+      // json, JavaScript's and most others'.
+      if (number.find_first_of(".e") == std::string::npos) *out += ".0";
       return;
     }
     case Kind::kString: *out += JsonQuote(string_); return;

@@ -1,6 +1,7 @@
 // A small JSON value for writing reports (report.json, evaluation.json, register.json):
 // objects keep their keys in insertion order, doubles print in the shortest form that reads
-// back to the same value, NaN and inf print as null (JSON has no such numbers).
+// back to the same value (with ".0" when integral, so that they read back as doubles), NaN
+// and inf print as null (JSON has no such numbers).
 #pragma once
 
 #include <cstdint>
@@ -41,6 +42,8 @@ class Json {
   Json& operator[](const std::string& key);
 
   bool is_object() const { return kind_ == Kind::kObject; }
+  // An object without members or an array without items.
+  bool empty() const { return members_.empty() && items_.empty(); }
   bool is_array() const { return kind_ == Kind::kArray; }
 
   // Pretty-printed with `indent` spaces (0: one line).

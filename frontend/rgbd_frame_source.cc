@@ -68,7 +68,7 @@ const ProcessedFrame& RgbdFrameSource::Processed(int frame) {
   auto it = processed_.find(frame);
   if (it != processed_.end()) return it->second;
   const auto start = std::chrono::steady_clock::now();
-  const std::string name = "frame " + std::to_string(frame) + ": ";
+  const std::string name = "frame " + std::to_string(dataset_.info(frame).source_index) + ": ";
   ProcessedFrame processed;
   std::string unusable;
   try {
@@ -178,7 +178,8 @@ CandidateFrame RgbdFrameSource::Build(int frame, const std::vector<int>& bases) 
     if (registration.result.success) {
       registered.emplace_back(base, std::move(registration));
     } else {
-      refusal = "base frame " + std::to_string(base) + ": " + registration.result.reason;
+      refusal = "base frame " + std::to_string(dataset_.info(base).source_index) + ": " +
+                registration.result.reason;
     }
   }
   std::stable_sort(registered.begin(), registered.end(), [](const auto& x, const auto& y) {

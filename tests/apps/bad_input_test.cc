@@ -269,6 +269,23 @@ TEST_F(DamagedSequenceTest, TexturelessFramesAreSkipsNamingTheFile) {
   ExpectSkipped(12, {"frame 12", "too little texture", textureless_[1].string()});
 }
 
+// With --first, frames keep their dataset index in frames_skipped, in the reasons and in the
+// warnings, as in selected_frames.txt.
+TEST_F(DamagedSequenceTest, SkippedFramesKeepTheirDatasetIndexAfterFirst) {
+  const fs::path out = root_ / "damaged_first";
+  const Result r = RunIeslam("run --quiet --dataset " + (root_ / "damaged").string() +
+                             " --first 2 --output " + out.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const std::string report = ReadFile(out / "report.json");
+  EXPECT_TRUE(Contains(report, "\"frame\": 3,")) << report.substr(0, 3000);
+  EXPECT_TRUE(Contains(report, "\"reason\": \"frame 3: cannot decode colour image"))
+      << report.substr(0, 3000);
+  EXPECT_FALSE(Contains(report, "\"frame\": 1,")) << report.substr(0, 3000);
+  EXPECT_TRUE(Contains(r.output, "run: warning: frame 3 skipped: frame 3: cannot decode"))
+      << r.output;
+  EXPECT_EQ(ReadFile(out / "selected_frames.txt").rfind("2 ", 0), 0u);
+}
+
 TEST_F(BadInputTest, ABadFirstFrameEndsTheRunWithExit3) {
   const fs::path dir = ListsOnly("bad_first");
   const fs::path image = dir / ListEntries(dir / "rgb.txt")[0].second;
@@ -442,6 +459,8 @@ TEST_F(BadInputTest, OutOfRangeOptionsAreExit2NamingTheFlag) {
       {"--seed abc", "--seed must be an integer, got 'abc'"},
       {"--selector best", "--selector must be info, all, interval or deadreckoning, got 'best'"},
       {"--format bag", "bag"},
+      // Refused before any frame is read (the lists-only dataset has no images).
+      {"--selector deadreckoning --refine", "--refine needs a filter"},
   };
   for (const auto& [flags, message] : cases) {
     const Result r = RunIeslam(common + " " + flags);
@@ -461,9 +480,14 @@ TEST_F(BadInputTest, SimulateConfigIsCheckedNamingFileAndKey) {
   EXPECT_TRUE(Contains(r.output, config.string() + ": bundle adjustment: rejection_chi2 must be >= 0"))
       << r.output;
   const std::string missing = (root_ / "no_such.yaml").string();
+  // A config file that is missing or a directory is bad usage, as --calib's is.
   r = RunIeslam("simulate --output " + out.string() + " --config " + missing);
-  EXPECT_EQ(r.exit_code, 3) << r.output;
+  EXPECT_EQ(r.exit_code, 2) << r.output;
   EXPECT_TRUE(Contains(r.output, "config file not found: " + missing)) << r.output;
+  r = RunIeslam("simulate --output " + out.string() + " --config " + root_.string());
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_TRUE(Contains(r.output, "config file is not a regular file: " + root_.string()))
+      << r.output;
   EXPECT_FALSE(fs::exists(out / "report.json"));
 }
 

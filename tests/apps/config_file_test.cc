@@ -62,7 +62,8 @@ TEST(ConfigFileTest, BadFilesNameTheKey) {
   EXPECT_NE(ErrorOf("%YAML:1.0\ndepth_alignment: { grid_step: 0 }\n").find("step"),
             std::string::npos);
   RunOptions options;
-  EXPECT_THROW(ApplyConfigFile("/no/such/config.yaml", &options), DataError);
+  // A missing config file is bad usage (exit 2), like a bad value in one.
+  EXPECT_THROW(ApplyConfigFile("/no/such/config.yaml", &options), ConfigError);
 }
 
 // OpenCV's YAML parser never returns on this text (core/yaml_text.h); the file is refused first.

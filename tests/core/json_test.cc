@@ -23,6 +23,22 @@ TEST(JsonTest, NumbersRoundTripAndNonFiniteIsNull) {
   EXPECT_EQ(Json(0.1 + 0.2).Dump(), "0.30000000000000004");
 }
 
+TEST(JsonTest, IntegralDoublesReadBackAsDoubles) {
+  EXPECT_EQ(Json(3.0).Dump(), "3.0");
+  EXPECT_EQ(Json(0.0).Dump(), "0.0");
+  EXPECT_EQ(Json(-0.0).Dump(), "-0.0");
+  EXPECT_EQ(Json(1e20).Dump(), "1e+20");
+  EXPECT_EQ(Json(3).Dump(), "3");  // integers stay integers
+  EXPECT_EQ(Json(int64_t{-7}).Dump(), "-7");
+}
+
+TEST(JsonTest, EmptyTellsAnObjectOrArrayWithoutContent) {
+  EXPECT_TRUE(Json::Object().empty());
+  EXPECT_TRUE(Json::Array().empty());
+  EXPECT_FALSE(Json::Object().Set("a", 1).empty());
+  EXPECT_FALSE(Json::Array().Push(1).empty());
+}
+
 TEST(JsonTest, StringsAreEscaped) {
   EXPECT_EQ(Json(std::string("a\"b\\c\nd\x01")).Dump(), R"("a\"b\\c\nd\u0001")");
 }
@@ -36,7 +52,7 @@ TEST(JsonTest, PrettyPrintsArraysOfObjectsOnePerLine) {
   EXPECT_EQ(
       report.Dump(2),
       "{\n  \"frames_skipped\": [\n    {\n      \"frame\": 3,\n      \"reason\": \"textureless\"\n"
-      "    }\n  ],\n  \"band\": [1, 2]\n}");
+      "    }\n  ],\n  \"band\": [1.0, 2.0]\n}");
 }
 
 }  // namespace
