@@ -4,6 +4,7 @@
 
 #include "apps/app_util.h"
 #include "apps/commands.h"
+#include "apps/interrupt.h"
 #include "core/error.h"
 #include "core/file_util.h"
 #include "frontend/pairwise_evaluation.h"
@@ -28,7 +29,8 @@ Json ReportToJson(const PairwiseReport& report, int step) {
                   .Set("trans_err_median_m", report.translation_error_median_m)
                   .Set("rot_err_p90_deg", report.rotation_error_p90_deg)
                   .Set("trans_err_p90_m", report.translation_error_p90_m)
-                  .Set("ms_per_frame", report.ms_per_frame);
+                  .Set("ms_per_frame", report.ms_per_frame)
+                  .Set("interrupted", report.interrupted);
   Json pairs = Json::Array();
   for (const PairRecord& r : report.pairs) {
     Json pair = Json::Object()
@@ -69,8 +71,13 @@ int RegisterCommand(const CommandArgs& args) {
   PrepareOutputDirectory(output);
 
   Progress progress("register", dataset->size() - options.step, flags.Has("quiet"));
-  const PairwiseReport report = EvaluatePairwiseRegistration(
-      *dataset, FrontendOptions(), options, [&progress](int done, int) { progress.Update(done); });
+  PairwiseReport report;
+  {
+    const StopOnInterrupt interrupt;  // Ctrl-C: the report covers the pairs done
+    report = EvaluatePairwiseRegistration(
+        *dataset, FrontendOptions(), options, [&progress](int done, int) { progress.Update(done); },
+        interrupt.Poll());
+  }
   progress.Finish();
 
   const Json json = ReportToJson(report, options.step);
@@ -82,6 +89,11 @@ int RegisterCommand(const CommandArgs& args) {
   std::printf("register.rot_err_p90_deg %.6f\n", report.rotation_error_p90_deg);
   std::printf("register.trans_err_p90_m %.6f\n", report.translation_error_p90_m);
   std::printf("register.ms_per_frame %.6f\n", report.ms_per_frame);
+  if (report.interrupted) {
+    std::fprintf(stderr, "register: interrupted after %zu pairs; register.json covers those\n",
+                 report.pairs.size());
+    return 130;
+  }
   return 0;
 }
 

@@ -1,24 +1,15 @@
 // `ieslam run`: the main job.
-#include <atomic>
-#include <csignal>
 #include <cstdio>
 #include <iostream>
 
 #include "apps/app_util.h"
 #include "apps/commands.h"
 #include "apps/config_file.h"
+#include "apps/interrupt.h"
 #include "apps/run_pipeline.h"
 #include "core/error.h"
 
 namespace ieslam {
-namespace {
-
-// Set by SIGINT; the run stops at the next frame boundary and still writes its outputs.
-std::atomic<bool> g_interrupted{false};
-
-void OnInterrupt(int) { g_interrupted.store(true); }
-
-}  // namespace
 
 int RunCommand(const CommandArgs& args) {
   std::vector<FlagSpec> specs = DatasetFlagSpecs();
@@ -60,9 +51,12 @@ int RunCommand(const CommandArgs& args) {
   options.verbose = flags.Has("verbose");
   if (options.quiet && options.verbose) throw ConfigError("--quiet and --verbose exclude each other");
   options.refine = flags.Has("refine");
-  std::signal(SIGINT, OnInterrupt);
-  const RunSummary summary = RunPipeline(options, [] { return g_interrupted.load(); });
-  std::signal(SIGINT, SIG_DFL);
+  RunSummary summary;
+  {
+    // The run stops at the next frame boundary and still writes its outputs.
+    const StopOnInterrupt interrupt;
+    summary = RunPipeline(options, interrupt.Poll());
+  }
   std::printf("run: %d of %d frames selected, %zu skipped, state dimension %d\n",
               summary.frames_selected, summary.frames_total, summary.frames_skipped.size(),
               summary.state_dim);

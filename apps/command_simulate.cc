@@ -9,6 +9,7 @@
 #include "apps/batch_refinement.h"
 #include "apps/commands.h"
 #include "apps/config_file.h"
+#include "apps/interrupt.h"
 #include "backend/consistency.h"
 #include "core/error.h"
 #include "core/file_util.h"
@@ -61,6 +62,28 @@ Json RowToJson(const TableRow& row) {
       .Set("refined_ate_rmse_m", row.refined_ate_rmse_m)
       .Set("refined_not_worse", row.refined_not_worse)
       .Set("seconds_ba", row.seconds_ba);
+}
+
+// The table's buffer column: the info rows' look-ahead buffer, 0 for the all-frames row.
+int BufferOfRow(const SelectorOptions& row) {
+  return row.kind == SelectorKind::kInfo ? row.buffer_size : 0;
+}
+
+// One row's per-pose errors, sigmas and NEES (report.json: first_run_pose_errors).
+Json PoseErrorsToJson(const SelectorOptions& row, const KnownAssociationMetrics& metrics) {
+  Json errors = Json::Array();
+  for (const PoseErrorRecord& e : metrics.pose_errors) {
+    errors.Push(
+        Json::Object()
+            .Set("frame", e.frame)
+            .Set("error", Json::ArrayOf(std::vector<double>(e.error.data(), e.error.data() + 6)))
+            .Set("sigma", Json::ArrayOf(std::vector<double>(e.sigma.data(), e.sigma.data() + 6)))
+            .Set("nees", e.nees));
+  }
+  return Json::Object()
+      .Set("selector", SelectorKindName(row.kind))
+      .Set("buffer", BufferOfRow(row))
+      .Set("poses", errors);
 }
 
 std::string TableMarkdown(const std::vector<TableRow>& rows, int runs, uint32_t seed,
@@ -143,46 +166,56 @@ int SimulateCommand(const CommandArgs& args) {
     info.buffer_size = buffer;
     rows_options.push_back(info);
   }
-  std::vector<TableRow> rows(rows_options.size());
+  // Each row's metrics per run, kept light (the pose errors of the first run go into
+  // first_run_errors); the table is their mean.
+  std::vector<std::vector<KnownAssociationMetrics>> per_row(rows_options.size());
   // The first run's per-pose errors and sigmas of every row: the paper's Figs. 3-4.
   Json first_run_errors = Json::Array();
-  for (size_t i = 0; i < rows.size(); ++i) {
-    rows[i].selector = SelectorKindName(rows_options[i].kind);
-    rows[i].buffer = rows_options[i].kind == SelectorKind::kInfo ? rows_options[i].buffer_size : 0;
-    rows[i].nees_band = NeesBand(6, runs);
-  }
-  Progress progress("simulate", runs * static_cast<int>(rows.size()), flags.Has("quiet"));
-  for (int run = 0; run < runs; ++run) {
-    simulation.noise_seed = seed + static_cast<uint32_t>(run) + 1;
-    const SimulatedDataset data = SimulatePaperScenario(simulation);
-    const KnownAssociationInput input{data.observations, data.T_w_c_true, data.camera};
-    for (size_t i = 0; i < rows.size(); ++i) {
-      const KnownAssociationMetrics metrics =
-          RunKnownAssociation(input, rows_options[i], options.filter, &options.ba);
-      Accumulate(metrics, 1.0 / runs, &rows[i]);
-      if (run == 0) {
-        Json errors = Json::Array();
-        for (const PoseErrorRecord& e : metrics.pose_errors) {
-          errors.Push(Json::Object()
-                          .Set("frame", e.frame)
-                          .Set("error", Json::ArrayOf(std::vector<double>(e.error.data(), e.error.data() + 6)))
-                          .Set("sigma", Json::ArrayOf(std::vector<double>(e.sigma.data(), e.sigma.data() + 6)))
-                          .Set("nees", e.nees));
+  Progress progress("simulate", runs * static_cast<int>(rows_options.size()), flags.Has("quiet"));
+  bool interrupted = false;
+  {
+    // Ctrl-C: the table covers the runs completed (or the rows of the first run done).
+    const StopOnInterrupt interrupt;
+    for (int run = 0; run < runs && !interrupted; ++run) {
+      simulation.noise_seed = seed + static_cast<uint32_t>(run) + 1;
+      const SimulatedDataset data = SimulatePaperScenario(simulation);
+      const KnownAssociationInput input{data.observations, data.T_w_c_true, data.camera};
+      for (size_t i = 0; i < rows_options.size(); ++i) {
+        if (interrupt.requested()) {
+          interrupted = true;
+          break;
         }
-        first_run_errors.Push(Json::Object()
-                                  .Set("selector", rows[i].selector)
-                                  .Set("buffer", rows[i].buffer)
-                                  .Set("poses", errors));
+        KnownAssociationMetrics metrics =
+            RunKnownAssociation(input, rows_options[i], options.filter, &options.ba);
+        if (run == 0) first_run_errors.Push(PoseErrorsToJson(rows_options[i], metrics));
+        metrics.pose_errors.clear();
+        metrics.selection = SelectionResult();
+        per_row[i].push_back(std::move(metrics));
+        progress.Update(run * static_cast<int>(rows_options.size()) + static_cast<int>(i) + 1,
+                        std::string(SelectorKindName(rows_options[i].kind)) + " " +
+                            std::to_string(BufferOfRow(rows_options[i])));
       }
-      progress.Update(run * static_cast<int>(rows.size()) + static_cast<int>(i) + 1,
-                      rows[i].selector + " " + std::to_string(rows[i].buffer));
     }
   }
   progress.Finish();
+  // A run cut short is left out, unless it is the first: then its finished rows stand.
+  size_t runs_done = per_row.back().size();
+  if (runs_done == 0) runs_done = per_row.front().size();
+  std::vector<TableRow> rows;
+  for (size_t i = 0; i < rows_options.size(); ++i) {
+    if (per_row[i].size() < runs_done) continue;
+    TableRow row;
+    row.selector = SelectorKindName(rows_options[i].kind);
+    row.buffer = BufferOfRow(rows_options[i]);
+    row.nees_band = NeesBand(6, static_cast<int>(runs_done));
+    for (size_t r = 0; r < runs_done; ++r) Accumulate(per_row[i][r], 1.0 / runs_done, &row);
+    rows.push_back(row);
+  }
 
   Json report = Json::Object()
                     .Set("version", IESLAM_VERSION)
-                    .Set("runs", runs)
+                    .Set("runs", static_cast<int>(runs_done))
+                    .Set("interrupted", interrupted)
                     .Set("seed", static_cast<int64_t>(seed))
                     .Set("trajectory", trajectory);
   report["options"].Set("buffers", Json::ArrayOf(buffers));
@@ -193,9 +226,14 @@ int SimulateCommand(const CommandArgs& args) {
   report.Set("table", table);
   report.Set("first_run_pose_errors", first_run_errors);
   WriteTextAtomically(JoinPath(output, "report.json"), report.Dump() + "\n");
-  const std::string markdown = TableMarkdown(rows, runs, seed, trajectory);
+  const std::string markdown = TableMarkdown(rows, static_cast<int>(runs_done), seed, trajectory);
   WriteTextAtomically(JoinPath(output, "table.md"), markdown);
   std::cout << markdown;
+  if (interrupted) {
+    std::fprintf(stderr, "simulate: interrupted; the table covers %zu of %d run(s)\n", runs_done,
+                 runs);
+    return 130;
+  }
   return 0;
 }
 

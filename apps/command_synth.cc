@@ -3,6 +3,7 @@
 
 #include "apps/app_util.h"
 #include "apps/commands.h"
+#include "apps/interrupt.h"
 #include "core/error.h"
 #include "frontend/synthetic_dataset.h"
 
@@ -35,9 +36,18 @@ int SynthCommand(const CommandArgs& args) {
   std::string why;
   if (!options.Check(&why)) throw ConfigError(why);
   PrepareOutputDirectory(output);
-  WriteSyntheticDataset(output, options);
-  std::cout << "synth: wrote " << options.frames << " " << ToString(options.sensor)
+  int frames = 0;
+  {
+    const StopOnInterrupt interrupt;  // Ctrl-C: a shorter dataset, still complete
+    frames = WriteSyntheticDataset(output, options, interrupt.Poll());
+  }
+  std::cout << "synth: wrote " << frames << " " << ToString(options.sensor)
             << " frames with ground truth to " << output << "\n";
+  if (frames < options.frames) {
+    std::cerr << "synth: interrupted after " << frames << " of " << options.frames
+              << " frames; the dataset holds those\n";
+    return 130;
+  }
   return 0;
 }
 

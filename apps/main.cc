@@ -6,6 +6,7 @@
 #include <string>
 
 #include "apps/commands.h"
+#include "apps/interrupt.h"
 #include "core/error.h"
 
 namespace ieslam {
@@ -46,6 +47,7 @@ int Main(int argc, char** argv) {
       return 2;
     }
     try {
+      ExitOnInterrupt();
       return command.run(CommandArgs(argv + 2, argv + argc));
     } catch (const ConfigError& e) {
       std::cerr << "ieslam " << name << ": " << e.what() << "\n";

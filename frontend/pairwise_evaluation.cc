@@ -33,7 +33,8 @@ double Percentile(std::vector<double> values, double q) {
 
 PairwiseReport EvaluatePairwiseRegistration(const Dataset& dataset, const FrontendOptions& frontend,
                                             const PairwiseOptions& options,
-                                            const std::function<void(int, int)>& progress) {
+                                            const std::function<void(int, int)>& progress,
+                                            const std::function<bool()>& stop) {
   std::string why;
   if (!options.Check(&why)) throw ConfigError(why);
   if (!frontend.Check(&why)) throw ConfigError(why);
@@ -47,6 +48,10 @@ PairwiseReport EvaluatePairwiseRegistration(const Dataset& dataset, const Fronte
   std::deque<ProcessedFrame> window;  // frames i .. i+K
   const int total_pairs = n - options.step;
   for (int j = 0; j < n; ++j) {
+    if (stop && stop()) {
+      report.interrupted = true;
+      break;
+    }
     window.push_back(processor.Process(dataset.Load(j)));
     if (static_cast<int>(window.size()) <= options.step) continue;
     const ProcessedFrame& a = window.front();
@@ -81,7 +86,7 @@ PairwiseReport EvaluatePairwiseRegistration(const Dataset& dataset, const Fronte
     window.pop_front();
     if (progress) progress(static_cast<int>(report.pairs.size()), total_pairs);
   }
-  if (report.pairs.empty()) {
+  if (report.pairs.empty() && !report.interrupted) {
     throw DataError(dataset.directory() + ": no frame pair has ground truth to compare with");
   }
   std::vector<double> rotation, translation, ms;
@@ -93,7 +98,8 @@ PairwiseReport EvaluatePairwiseRegistration(const Dataset& dataset, const Fronte
     rotation.push_back(record.rotation_error_deg);
     translation.push_back(record.translation_error_m);
   }
-  report.success_rate = static_cast<double>(successes) / report.pairs.size();
+  report.success_rate =
+      report.pairs.empty() ? 0.0 : static_cast<double>(successes) / report.pairs.size();
   report.rotation_error_median_deg = Percentile(rotation, 50);
   report.translation_error_median_m = Percentile(translation, 50);
   report.rotation_error_p90_deg = Percentile(rotation, 90);

@@ -46,13 +46,17 @@ struct PairwiseReport {
   double translation_error_p90_m = 0.0;
   // Median over pairs of frontend_seconds, in milliseconds.
   double ms_per_frame = 0.0;
+  bool interrupted = false;  // `stop` ended the evaluation: the figures cover `pairs`
 };
 
 // Processes every frame once (a sliding window of K+1 processed frames is kept) and
-// registers i -> i+K. `progress` (optional) is called after each pair with (done, total).
-PairwiseReport EvaluatePairwiseRegistration(
-    const Dataset& dataset, const FrontendOptions& frontend, const PairwiseOptions& options,
-    const std::function<void(int, int)>& progress = nullptr);
+// registers i -> i+K. `progress` (optional) is called after each pair with (done, total);
+// `stop` (optional) is polled before each frame, and when it returns true the report covers
+// the pairs done so far.
+PairwiseReport EvaluatePairwiseRegistration(const Dataset& dataset, const FrontendOptions& frontend,
+                                            const PairwiseOptions& options,
+                                            const std::function<void(int, int)>& progress = nullptr,
+                                            const std::function<bool()>& stop = nullptr);
 
 // Linear-interpolation percentile (numpy's default), q in [0, 100]; 0 for an empty list.
 double Percentile(std::vector<double> values, double q);

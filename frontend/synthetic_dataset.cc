@@ -186,7 +186,8 @@ SyntheticFrame RenderSyntheticFrame(const SyntheticScene& scene, const Rig& rig,
   return frame;
 }
 
-void WriteSyntheticDataset(const std::string& directory, const SyntheticDatasetOptions& options) {
+int WriteSyntheticDataset(const std::string& directory, const SyntheticDatasetOptions& options,
+                          const std::function<bool()>& stop) {
   std::string why;
   if (!options.Check(&why)) throw ConfigError("synthetic dataset options: " + why);
   const SyntheticScene scene(options.scene);
@@ -231,13 +232,15 @@ void WriteSyntheticDataset(const std::string& directory, const SyntheticDatasetO
                           ? options.threads
                           : std::max(1, static_cast<int>(std::thread::hardware_concurrency())));
   std::vector<std::exception_ptr> errors(workers);
+  std::vector<char> written(options.frames, 0);  // each entry set by one worker only
   auto work = [&](int k) {
     try {
-      for (int i = k; i < options.frames; i += workers) {
+      for (int i = k; i < options.frames && !(stop && stop()); i += workers) {
         const SyntheticFrame frame = RenderSyntheticFrame(scene, rig, poses[i], single_thread, i);
         const std::string stamp = StampString(frame.timestamp);
         WritePng(JoinPath(directory, colour_dir + "/" + stamp + ".png"), frame.colour);
         WritePng(JoinPath(directory, range_dir + "/" + stamp + ".png"), frame.range_raw);
+        written[i] = 1;
       }
     } catch (...) {
       errors[k] = std::current_exception();
@@ -251,8 +254,12 @@ void WriteSyntheticDataset(const std::string& directory, const SyntheticDatasetO
     if (error) std::rethrow_exception(error);
   }
 
+  // Stopped, the dataset ends before the first frame a worker did not write.
+  SyntheticDatasetOptions as_written = options;
+  as_written.frames =
+      static_cast<int>(std::find(written.begin(), written.end(), 0) - written.begin());
   Trajectory ground_truth;
-  for (int i = 0; i < options.frames; ++i) {
+  for (int i = 0; i < as_written.frames; ++i) {
     const double t = SyntheticTimestamp(options, i);
     const std::string stamp = StampString(t);
     colour_list << stamp << " " << colour_dir << "/" << stamp << ".png\n";
@@ -263,9 +270,10 @@ void WriteSyntheticDataset(const std::string& directory, const SyntheticDatasetO
   WriteTumTrajectory(JoinPath(directory, "groundtruth.txt"), ground_truth,
                      " ground truth (exact) of the colour camera, T_w_c: ieslam synthetic " +
                          std::string(ToString(options.sensor)));
-  WriteTextAtomically(JoinPath(directory, "synthetic.txt"), FormatSyntheticOptions(options));
+  WriteTextAtomically(JoinPath(directory, "synthetic.txt"), FormatSyntheticOptions(as_written));
   WriteTextAtomically(JoinPath(directory, rgbd ? "rgb.txt" : "colour.txt"), colour_list.str());
   WriteTextAtomically(JoinPath(directory, rgbd ? "depth.txt" : "range.txt"), range_list.str());
+  return as_written.frames;
 }
 
 std::string FormatSyntheticOptions(const SyntheticDatasetOptions& o) {

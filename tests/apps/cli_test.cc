@@ -1,5 +1,11 @@
 // The `ieslam` binary as users and outside checks see it: subcommands, help, exit codes.
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <filesystem>
 #include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -8,8 +14,41 @@
 namespace {
 
 using ieslam::testing_apps::CommandResult;
+using ieslam::testing_apps::ReadFile;
 using ieslam::testing_apps::RunIeslam;
 using Result = CommandResult;
+namespace fs = std::filesystem;
+
+// Starts `ieslam args...` (output to /dev/null), waits until `started` exists (the command
+// makes its output directory before the work), lets it work `work_ms`, sends SIGINT and
+// returns the exit code (-1 when it did not exit normally).
+int ExitCodeAfterSigint(const std::vector<std::string>& args, const fs::path& started,
+                        int work_ms) {
+  const pid_t child = fork();
+  if (child < 0) return -1;
+  if (child == 0) {
+    std::vector<char*> argv{const_cast<char*>("ieslam")};
+    for (const std::string& arg : args) argv.push_back(const_cast<char*>(arg.c_str()));
+    argv.push_back(nullptr);
+    freopen("/dev/null", "w", stdout);
+    freopen("/dev/null", "w", stderr);
+    execv(IESLAM_BINARY, argv.data());
+    _exit(127);
+  }
+  for (int i = 0; i < 600 && !fs::exists(started); ++i) ::usleep(100 * 1000);
+  ::usleep(work_ms * 1000);
+  ::kill(child, SIGINT);
+  int status = 0;
+  ::waitpid(child, &status, 0);
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+fs::path TempPath(const std::string& name) {
+  const fs::path path =
+      fs::temp_directory_path() / ("ieslam_cli_test_" + std::to_string(::getpid()) + "_" + name);
+  fs::remove_all(path);
+  return path;
+}
 
 TEST(CliTest, HelpListsEverySubcommandOfTheInterface) {
   const Result result = RunIeslam("--help");
@@ -30,6 +69,37 @@ TEST(CliTest, QuietAndVerboseTogetherAreAUsageErrorNamingBoth) {
   const Result result = RunIeslam("run --dataset /nonexistent --output /tmp/x --quiet --verbose");
   EXPECT_EQ(result.exit_code, 2);
   EXPECT_NE(result.output.find("--quiet and --verbose"), std::string::npos) << result.output;
+}
+
+// ../shared/CLI.md: Ctrl-C is exit 130 for every command, and what was processed is
+// written. (run's own test: run_pipeline_test.)
+TEST(CliTest, SigintEndsSimulateWith130AndTheRowsDone) {
+  const fs::path out = TempPath("simulate");
+  const int code = ExitCodeAfterSigint(
+      {"simulate", "--output", out.string(), "--runs", "50", "--buffers", "3", "--quiet"}, out,
+      300);
+  ASSERT_EQ(code, 130);
+  EXPECT_NE(ReadFile(out / "report.json").find("\"interrupted\": true"), std::string::npos);
+  EXPECT_NE(ReadFile(out / "table.md").find("Table I"), std::string::npos);
+  fs::remove_all(out);
+}
+
+TEST(CliTest, SigintEndsSynthWith130AndAShorterCompleteDataset) {
+  const fs::path out = TempPath("synth");
+  const int code =
+      ExitCodeAfterSigint({"synth", "--output", out.string(), "--frames", "5000"}, out, 500);
+  ASSERT_EQ(code, 130);
+  const std::string list = ReadFile(out / "rgb.txt");
+  int frames = 0;
+  for (size_t at = list.find('\n'); at != std::string::npos; at = list.find('\n', at + 1)) {
+    ++frames;
+  }
+  frames -= 3;  // the TUM header
+  EXPECT_GE(frames, 0);
+  EXPECT_LT(frames, 5000);
+  EXPECT_NE(ReadFile(out / "synthetic.txt").find("frames: " + std::to_string(frames) + "\n"),
+            std::string::npos);
+  fs::remove_all(out);
 }
 
 TEST(CliTest, VersionPrintsTheProjectVersion) {

@@ -240,5 +240,21 @@ TEST(SyntheticDatasetTest, SameOptionsGiveByteIdenticalFilesWhateverTheThreads) 
   for (const std::string& dir : {a, b, c}) fs::remove_all(dir);
 }
 
+// A stop request closes the dataset with the frames rendered so far: a complete, shorter one.
+TEST(SyntheticDatasetTest, AStopRequestLeavesAShorterCompleteDataset) {
+  SyntheticDatasetOptions options = SmallOptions(SyntheticSensor::kRgbd);
+  options.threads = 1;
+  const std::string dir = TempDir("stopped");
+  int polls = 0;
+  EXPECT_EQ(WriteSyntheticDataset(dir, options, [&polls] { return ++polls > 3; }), 3);
+  const std::unique_ptr<Dataset> dataset = OpenDataset(dir, DatasetOptions());
+  EXPECT_EQ(dataset->size(), 3);
+  EXPECT_EQ(dataset->GroundTruth().size(), 3u);
+  EXPECT_NE(ReadBytes(fs::path(dir) / "synthetic.txt").find("frames: 3\n"), std::string::npos);
+  // Not stopped: every frame.
+  EXPECT_EQ(WriteSyntheticDataset(dir, options, [] { return false; }), options.frames);
+  fs::remove_all(dir);
+}
+
 }  // namespace
 }  // namespace ieslam
