@@ -39,10 +39,12 @@ int EvaluateCommand(const CommandArgs& args) {
   std::string why;
   if (!options.Check(&why)) throw ConfigError(why);
 
+  // The trajectories are read before OUT is made (bad input leaves no directory behind), and
+  // OUT before anything is printed (an unwritable OUT is an error, not a half success).
   const std::string output = flags.GetString("output", "");
-  if (!output.empty()) PrepareOutputDirectory(output);
   const EvaluationResult result =
       EvaluateTrajectoryFiles(flags.Require("gt"), flags.Require("est"), options);
+  if (!output.empty()) PrepareOutputDirectory(output);
   for (const std::string& warning : result.warnings) std::cerr << "warning: " << warning << "\n";
   std::cout << FormatEvaluation(result);
   if (!output.empty()) {

@@ -57,8 +57,8 @@ PairwiseReport EvaluatePairwiseRegistration(const Dataset& dataset, const Fronte
     const ProcessedFrame& a = window.front();
     const ProcessedFrame& b = window.back();
     PairRecord record;
-    record.frame_a = a.info.index;
-    record.frame_b = b.info.index;
+    record.frame_a = a.info.source_index;  // as the user numbers frames (before --first)
+    record.frame_b = b.info.source_index;
     if (!a.info.T_w_c_gt || !b.info.T_w_c_gt) {
       ++report.frames_without_ground_truth;
       window.pop_front();
