@@ -3,9 +3,11 @@
 // adjusts it and writes OUT/refined.tum and OUT/report.json. With --dataset (the run's),
 // the selected frames' range images are read again and aligned pairwise in the refinement,
 // as `ieslam run --refine` does.
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <thread>
 
 #include "apps/app_util.h"
 #include "apps/batch_refinement.h"
@@ -42,7 +44,9 @@ int RefineCommand(const CommandArgs& args) {
       {"format", "F", "with --dataset: auto (default), tum, 7scenes or pair"},
       {"calib", "FILE", "with --dataset: calibration file (default: the format's)"},
       {"config", "FILE", "YAML; its ba and depth_alignment sections set the options"},
-      {"threads", "N", "1: deterministic single-thread mode (default: 1)"}};
+      {"threads", "N", "threads of the alignment and the bundle adjustment; 1: the deterministic "
+                       "single-thread mode (default: the pairs aligned on all cores, the bundle "
+                       "adjustment on one, which gives the same result as 1)"}};
   const Flags flags(args, specs);
   if (flags.help()) {
     std::cout << FormatHelp(
@@ -61,7 +65,10 @@ int RefineCommand(const CommandArgs& args) {
   if (!ParseBaRobustLoss(robust, &ba.robust_loss)) {
     throw ConfigError("--robust must be none or huber, got '" + robust + "'");
   }
-  ba.num_threads = flags.GetInt("threads", 1, 1, 256);
+  // As run: pairs align independently (the same constraints for any thread count), so by
+  // default they use every core; Ceres' own threads follow --threads only.
+  const int threads = flags.GetInt("threads", 0, 1, 256);
+  if (threads > 0) ba.num_threads = threads;
   std::string why;
   if (!ba.Check(&why)) throw ConfigError(why);
 
@@ -71,7 +78,8 @@ int RefineCommand(const CommandArgs& args) {
   const StoredBaProblem stored = ReadBaProblem(JoinPath(run, "ba_problem.txt"));
   DepthRefinement depth;
   depth.options = options.depth_alignment;
-  depth.options.num_threads = ba.num_threads;
+  depth.options.num_threads =
+      threads > 0 ? threads : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
   if (!flags.Has("dataset") && (flags.Has("format") || flags.Has("calib"))) {
     throw ConfigError("--format and --calib describe --dataset, which is not given");
   }
