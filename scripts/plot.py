@@ -91,8 +91,11 @@ def plot_run(out, report):
             fig.colorbar(sc, ax=ax, label="position error (cm)")
             ka = keys[:, 1:4] @ r.T + t
             ax.scatter(ka[:, 0], ka[:, 1], marker="x", s=14, color="red", label="keyframes")
-            ax.set_title("ATE RMSE %.2f cm (all frames), %.2f cm (keyframes)" % (
-                100 * report["ate_rmse_m"]["trajectory"], 100 * report["ate_rmse_m"]["keyframes"]))
+            # The report has only the ATEs it could compute (3 or more poses each).
+            ate = report.get("ate_rmse_m", {})
+            ax.set_title("ATE RMSE %s (all frames), %s (keyframes)" % tuple(
+                "%.2f cm" % (100 * ate[key]) if key in ate else "n/a"
+                for key in ("trajectory", "keyframes")))
     else:
         ax.plot(traj[:, 1], traj[:, 2], lw=1, label="estimate")
         ax.scatter(keys[:, 1], keys[:, 2], marker="x", s=14, color="red", label="keyframes")
