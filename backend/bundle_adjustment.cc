@@ -1,6 +1,7 @@
 #include "backend/bundle_adjustment.h"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -260,6 +261,34 @@ BundleAdjustmentProblem MakeProblemFromFilter(
     }
   }
   return problem;
+}
+
+BundleAdjustmentProblem WithPoses(const BundleAdjustmentProblem& problem,
+                                  const std::map<int, Eigen::Isometry3d>& T_w_c,
+                                  const PinholeCamera& camera) {
+  BundleAdjustmentProblem started = problem;
+  for (auto& [frame_id, T] : started.T_w_c) {
+    const auto it = T_w_c.find(frame_id);
+    if (it == T_w_c.end()) {
+      throw DataError("frame " + std::to_string(frame_id) + ": no pose to start the problem from");
+    }
+    T = it->second;
+  }
+  std::map<int64_t, std::array<std::vector<double>, 3>> placed;
+  for (const BundleAdjustmentObservation& obs : problem.observations) {
+    const Eigen::Vector3d p_w = ObservationToWorld(IsometryToPose(started.T_w_c.at(obs.frame_id)),
+                                                   obs.observation.z, camera);
+    for (int axis = 0; axis < 3; ++axis)
+      placed[obs.observation.feature_id][axis].push_back(p_w[axis]);
+  }
+  for (auto& [feature_id, coordinates] : placed) {
+    for (int axis = 0; axis < 3; ++axis) {
+      std::vector<double>& values = coordinates[axis];
+      std::nth_element(values.begin(), values.begin() + values.size() / 2, values.end());
+      started.p_w.at(feature_id)[axis] = values[values.size() / 2];
+    }
+  }
+  return started;
 }
 
 BundleAdjustmentResult SolveBundleAdjustment(const BundleAdjustmentProblem& problem,

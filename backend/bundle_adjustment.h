@@ -112,6 +112,17 @@ BundleAdjustmentProblem MakeProblemFromFilter(
     const InformationFilter& filter,
     const std::map<int, std::vector<FeatureObservation>>& observations_by_frame);
 
+// `problem` started from other poses: T_w_c (which must hold every frame of the problem;
+// DataError naming the first missing one otherwise) replaces its poses, and each feature is
+// placed at the per-axis median of its observations back-projected from them, so that the
+// start owes nothing to the estimate the problem was made from. The median keeps an
+// outlying observation from moving a feature; the bundle adjustment's gate rejects it.
+// What `ieslam refine --from-ground-truth` solves: where the data's own optimum lies when
+// started at the ground truth.
+BundleAdjustmentProblem WithPoses(const BundleAdjustmentProblem& problem,
+                                  const std::map<int, Eigen::Isometry3d>& T_w_c,
+                                  const PinholeCamera& camera);
+
 struct BundleAdjustmentResult {
   std::map<int, Eigen::Isometry3d> T_w_c;
   std::map<int, Vector6d> poses;  // the paper's (x, y, z, alpha, beta, gamma), IsometryToPose

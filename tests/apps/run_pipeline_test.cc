@@ -114,6 +114,37 @@ TEST_F(RunPipelineTest, RefineNowAndRefineLaterFromTheStoredProblemAgree) {
       EvaluateTrajectoryFiles(gt, (features_only / "refined.tum").string(), EvaluationOptions())
           .ate.translation.rmse;
   EXPECT_LT(summary.ate_refined_m, ate_features_only);
+  // Started from the ground truth instead, the features-only adjustment starts elsewhere (the
+  // features placed from exact poses but noisy measurements) and ends at the same optimum.
+  const fs::path from_gt = root_ / "refined_from_gt";
+  const testing_apps::CommandResult gt_run = testing_apps::RunIeslam(
+      "refine --run " + out.string() + " --from-ground-truth --output " + from_gt.string());
+  ASSERT_EQ(gt_run.exit_code, 0) << gt_run.output;
+  const auto cost = [](const std::string& report, const char* key) {
+    std::smatch m;
+    const std::regex pattern(std::string("\"") + key + "\": ([0-9.e+-]+)");
+    return std::regex_search(report, m, pattern) ? std::stod(m[1]) : -1.0;
+  };
+  const std::string gt_report = ReadFile(from_gt / "report.json");
+  const std::string run_start_report = ReadFile(features_only / "report.json");
+  EXPECT_NE(gt_report.find("\"start\": \"ground_truth\""), std::string::npos);
+  EXPECT_GT(std::abs(cost(gt_report, "initial_cost") - cost(run_start_report, "initial_cost")),
+            0.1 * cost(run_start_report, "initial_cost"));
+  EXPECT_NEAR(cost(gt_report, "final_cost"), cost(run_start_report, "final_cost"),
+              1e-6 * cost(run_start_report, "final_cost"));
+  const double ate_from_gt =
+      EvaluateTrajectoryFiles(gt, (from_gt / "refined.tum").string(), EvaluationOptions())
+          .ate.translation.rmse;
+  EXPECT_NEAR(ate_from_gt, ate_features_only, 1e-5);
+  const fs::path no_gt = root_ / "run_without_gt";
+  fs::create_directories(no_gt);
+  fs::copy_file(out / "ba_problem.txt", no_gt / "ba_problem.txt",
+                fs::copy_options::overwrite_existing);
+  const testing_apps::CommandResult without_gt = testing_apps::RunIeslam(
+      "refine --run " + no_gt.string() + " --from-ground-truth --output " + no_gt.string());
+  EXPECT_EQ(without_gt.exit_code, 3) << without_gt.output;
+  EXPECT_NE(without_gt.output.find("groundtruth.tum not found"), std::string::npos)
+      << without_gt.output;
   // Another dataset (another camera) is a data error naming it; --calib without --dataset,
   // a usage error.
   const std::string tum = std::string(IESLAM_SHARED_DATA_DIR) + "/tum-fr1-desk-9";

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <memory>
 #include <random>
 
@@ -321,6 +322,51 @@ TEST(BundleAdjustmentTest, NoiseFreeProblemRecoversTheTruthAndKeepsTheAnchor) {
     for (const auto& [frame_id, T] : result.T_w_c) {
       EXPECT_LT((PoseToIsometry(result.poses.at(frame_id)).matrix() - T.matrix()).norm(), 1e-12);
     }
+  }
+}
+
+// Restarted from the true poses, exact observations put every feature back on the truth,
+// and an outlying observation does not move its feature.
+TEST(BundleAdjustmentTest, WithPosesRestartsThePosesAndPlacesTheFeaturesFromThem) {
+  std::mt19937 rng(7);
+  const TestScene scene = MakeTestScene(6, 40, &rng);
+  BundleAdjustmentProblem problem = MakeTestProblem(scene, 0.03, 0.02, 0.05, false, &rng);
+  ASSERT_GT(ErrorsToTruth(scene, problem.T_w_c, problem.p_w).rms_point_m, 0.01);
+  std::map<int, Eigen::Isometry3d> truth;
+  for (const auto& [frame_id, pose] : scene.poses) truth[frame_id] = PoseToIsometry(pose);
+  // An outlier among a well-seen feature's observations: 0.5 m further along its ray.
+  std::map<int64_t, int> seen;
+  for (const BundleAdjustmentObservation& obs : problem.observations)
+    ++seen[obs.observation.feature_id];
+  const int64_t busiest =
+      std::max_element(seen.begin(), seen.end(), [](const auto& a, const auto& b) {
+        return a.second < b.second;
+      })->first;
+  ASSERT_GE(seen[busiest], 3);
+  for (const BundleAdjustmentObservation& obs : problem.observations) {
+    if (obs.observation.feature_id != busiest) continue;
+    BundleAdjustmentObservation outlier = obs;
+    outlier.observation.z.z() += 0.5;
+    problem.observations.push_back(outlier);
+    break;
+  }
+
+  const BundleAdjustmentProblem started = WithPoses(problem, truth, scene.camera);
+  const PoseErrors errors = ErrorsToTruth(scene, started.T_w_c, started.p_w);
+  EXPECT_EQ(errors.max_translation_m, 0.0);
+  EXPECT_EQ(errors.max_rotation_rad, 0.0);
+  EXPECT_LT(errors.rms_point_m, 1e-9);
+  EXPECT_LT((started.p_w.at(busiest) - scene.points.at(busiest)).norm(), 1e-9);
+  EXPECT_EQ(started.observations.size(), problem.observations.size());
+
+  truth.erase(std::prev(truth.end()));
+  try {
+    WithPoses(problem, truth, scene.camera);
+    FAIL() << "no error for a frame without a pose";
+  } catch (const DataError& e) {
+    EXPECT_NE(std::string(e.what()).find("frame " + std::to_string(scene.poses.rbegin()->first)),
+              std::string::npos)
+        << e.what();
   }
 }
 
