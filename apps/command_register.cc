@@ -71,13 +71,11 @@ int RegisterCommand(const CommandArgs& args) {
   PrepareOutputDirectory(output);
 
   Progress progress("register", dataset->size() - options.step, flags.Has("quiet"));
-  PairwiseReport report;
-  {
-    const StopOnInterrupt interrupt;  // Ctrl-C: the report covers the pairs done
-    report = EvaluatePairwiseRegistration(
-        *dataset, FrontendOptions(), options, [&progress](int done, int) { progress.Update(done); },
-        interrupt.Poll());
-  }
+  // Ctrl-C: the report covers the pairs done; held until it is written.
+  const StopOnInterrupt interrupt;
+  const PairwiseReport report = EvaluatePairwiseRegistration(
+      *dataset, FrontendOptions(), options, [&progress](int done, int) { progress.Update(done); },
+      interrupt.Poll());
   progress.Finish();
 
   const Json json = ReportToJson(report, options.step);

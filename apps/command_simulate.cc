@@ -10,6 +10,7 @@
 #include "apps/commands.h"
 #include "apps/config_file.h"
 #include "apps/interrupt.h"
+#include "apps/run_pipeline.h"
 #include "backend/consistency.h"
 #include "core/error.h"
 #include "core/file_util.h"
@@ -107,7 +108,7 @@ std::string TableMarkdown(const std::vector<TableRow>& rows, int runs, uint32_t 
                   100.0 * r.within_2sigma, r.refined_ate_rmse_m, 100.0 * r.refined_not_worse);
     s << line;
   }
-  if (!rows.empty() && rows[0].selector == "all") {
+  if (rows.size() > 1 && rows[0].selector == "all") {
     s << "\nRatios to the all-frames EIF:\n\n| buffer | frames | time | state dim |\n|---|---|---|---|\n";
     for (size_t i = 1; i < rows.size(); ++i) {
       std::snprintf(line, sizeof(line), "| %d | %.2f | %.2f | %.2f |\n", rows[i].buffer,
@@ -172,37 +173,36 @@ int SimulateCommand(const CommandArgs& args) {
   // The first run's per-pose errors and sigmas of every row: the paper's Figs. 3-4.
   Json first_run_errors = Json::Array();
   Progress progress("simulate", runs * static_cast<int>(rows_options.size()), flags.Has("quiet"));
+  // Ctrl-C: the table covers the runs completed (or the rows of the first run done); held
+  // until the files are written, so that a Ctrl-C then does not lose them.
+  const StopOnInterrupt interrupt;
   bool interrupted = false;
-  {
-    // Ctrl-C: the table covers the runs completed (or the rows of the first run done).
-    const StopOnInterrupt interrupt;
-    for (int run = 0; run < runs && !interrupted; ++run) {
-      simulation.noise_seed = seed + static_cast<uint32_t>(run) + 1;
-      const SimulatedDataset data = SimulatePaperScenario(simulation);
-      const KnownAssociationInput input{data.observations, data.T_w_c_true, data.camera};
-      for (size_t i = 0; i < rows_options.size(); ++i) {
-        if (interrupt.requested()) {
-          interrupted = true;
-          break;
-        }
-        KnownAssociationMetrics metrics =
-            RunKnownAssociation(input, rows_options[i], options.filter, &options.ba);
-        if (run == 0) first_run_errors.Push(PoseErrorsToJson(rows_options[i], metrics));
-        metrics.pose_errors.clear();
-        metrics.selection = SelectionResult();
-        per_row[i].push_back(std::move(metrics));
-        progress.Update(run * static_cast<int>(rows_options.size()) + static_cast<int>(i) + 1,
-                        std::string(SelectorKindName(rows_options[i].kind)) + " " +
-                            std::to_string(BufferOfRow(rows_options[i])));
-      }
+  for (int run = 0; run < runs && !interrupted; ++run) {
+    interrupted = interrupt.requested();
+    if (interrupted) break;
+    simulation.noise_seed = seed + static_cast<uint32_t>(run) + 1;
+    const SimulatedDataset data = SimulatePaperScenario(simulation);
+    const KnownAssociationInput input{data.observations, data.T_w_c_true, data.camera};
+    for (size_t i = 0; i < rows_options.size() && !interrupted; ++i) {
+      interrupted = interrupt.requested();
+      if (interrupted) break;
+      KnownAssociationMetrics metrics =
+          RunKnownAssociation(input, rows_options[i], options.filter, &options.ba);
+      if (run == 0) first_run_errors.Push(PoseErrorsToJson(rows_options[i], metrics));
+      metrics.pose_errors.clear();
+      metrics.selection = SelectionResult();
+      per_row[i].push_back(std::move(metrics));
+      progress.Update(run * static_cast<int>(rows_options.size()) + static_cast<int>(i) + 1,
+                      std::string(SelectorKindName(rows_options[i].kind)) + " " +
+                          std::to_string(BufferOfRow(rows_options[i])));
     }
   }
   progress.Finish();
-  // A run cut short is left out, unless it is the first: then its finished rows stand.
-  size_t runs_done = per_row.back().size();
-  if (runs_done == 0) runs_done = per_row.front().size();
+  // A run cut short is left out, unless it is the first: then its finished rows stand (none
+  // when it was stopped before its first row).
+  const size_t runs_done = per_row.back().empty() ? per_row.front().size() : per_row.back().size();
   std::vector<TableRow> rows;
-  for (size_t i = 0; i < rows_options.size(); ++i) {
+  for (size_t i = 0; i < rows_options.size() && runs_done > 0; ++i) {
     if (per_row[i].size() < runs_done) continue;
     TableRow row;
     row.selector = SelectorKindName(rows_options[i].kind);
@@ -220,6 +220,9 @@ int SimulateCommand(const CommandArgs& args) {
                     .Set("trajectory", trajectory);
   report["options"].Set("buffers", Json::ArrayOf(buffers));
   report["options"].Set("config", flags.GetString("config", ""));
+  report["options"].Set("runs", runs);  // asked for; "runs" above: those the table covers
+  report["options"].Set("selector", SelectorOptionsToJson(options.selector));
+  report["options"].Set("filter", FilterOptionsToJson(options.filter));
   report["options"].Set("ba", BaOptionsToJson(options.ba));
   Json table = Json::Array();
   for (const TableRow& row : rows) table.Push(RowToJson(row));
@@ -230,8 +233,9 @@ int SimulateCommand(const CommandArgs& args) {
   WriteTextAtomically(JoinPath(output, "table.md"), markdown);
   std::cout << markdown;
   if (interrupted) {
-    std::fprintf(stderr, "simulate: interrupted; the table covers %zu of %d run(s)\n", runs_done,
-                 runs);
+    std::fprintf(stderr,
+                 "simulate: interrupted; the table has %zu of %zu rows over %zu of %d run(s)\n",
+                 rows.size(), rows_options.size(), runs_done, runs);
     return 130;
   }
   return 0;

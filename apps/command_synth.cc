@@ -36,11 +36,8 @@ int SynthCommand(const CommandArgs& args) {
   std::string why;
   if (!options.Check(&why)) throw ConfigError(why);
   PrepareOutputDirectory(output);
-  int frames = 0;
-  {
-    const StopOnInterrupt interrupt;  // Ctrl-C: a shorter dataset, still complete
-    frames = WriteSyntheticDataset(output, options, interrupt.Poll());
-  }
+  const StopOnInterrupt interrupt;  // Ctrl-C: a shorter dataset, still complete
+  const int frames = WriteSyntheticDataset(output, options, interrupt.Poll());
   std::cout << "synth: wrote " << frames << " " << ToString(options.sensor)
             << " frames with ground truth to " << output << "\n";
   if (frames < options.frames) {

@@ -20,19 +20,19 @@
 namespace ieslam {
 namespace {
 
-// One log line per selector decision, for --verbose.
-std::string DescribeDecision(const SelectionDecision& d) {
+// One log line per selector decision, for --verbose; frames by their dataset index.
+std::string DescribeDecision(const SelectionDecision& d, const Dataset& dataset) {
   std::string line = "run: " + d.reason + ": candidates";
   char number[32];
   for (size_t k = 0; k < d.candidates.size(); ++k) {
-    line += (k == 0 ? " " : ",") + std::to_string(d.candidates[k]);
+    line += (k == 0 ? " " : ",") + std::to_string(dataset.info(d.candidates[k]).source_index);
     if (k < d.gains.size()) {
       std::snprintf(number, sizeof(number), " (gain %.1f, map %.1f)", d.gains[k], d.map_gains[k]);
       line += number;
     }
   }
   line += " -> added";
-  for (int frame : d.added) line += " " + std::to_string(frame);
+  for (int frame : d.added) line += " " + std::to_string(dataset.info(frame).source_index);
   return line;
 }
 
@@ -92,6 +92,21 @@ bool RunOptions::Check(std::string* why) const {
          depth_alignment.Check(why);
 }
 
+Json SelectorOptionsToJson(const SelectorOptions& selector) {
+  return Json::Object()
+      .Set("kind", SelectorKindName(selector.kind))
+      .Set("buffer", selector.buffer_size)
+      .Set("interval", selector.interval)
+      .Set("min_common_features", selector.min_common_features)
+      .Set("map_gain_threshold", selector.map_gain_threshold)
+      .Set("max_recovery_frames", selector.max_recovery_frames)
+      .Set("min_view_change_deg", selector.min_view_change_deg);
+}
+
+Json FilterOptionsToJson(const InformationFilterOptions& filter) {
+  return Json::Object().Set("anchor_information", filter.anchor_information);
+}
+
 RgbdSourceOptions RunOptions::SourceOptionsUsed() const {
   RgbdSourceOptions used = source;
   used.frontend.registration.seed = seed;
@@ -139,15 +154,8 @@ Json RunOptions::ToJson() const {
       .Set("max_base_candidates", source.max_base_candidates)
       .Set("max_new_features_per_frame", source.max_new_features_per_frame)
       .Set("min_inliers_secondary", source.min_inliers_secondary);
-  json["selector"]
-      .Set("kind", SelectorKindName(selector.kind))
-      .Set("buffer", selector.buffer_size)
-      .Set("interval", selector.interval)
-      .Set("min_common_features", selector.min_common_features)
-      .Set("map_gain_threshold", selector.map_gain_threshold)
-      .Set("max_recovery_frames", selector.max_recovery_frames)
-      .Set("min_view_change_deg", selector.min_view_change_deg);
-  json["filter"].Set("anchor_information", filter.anchor_information);
+  json.Set("selector", SelectorOptionsToJson(selector));
+  json.Set("filter", FilterOptionsToJson(filter));
   json["map"].Set("voxel_size_m", map.voxel_size_m).Set("pixel_step", map.pixel_step);
   json.Set("ba", BaOptionsToJson(ba));
   json.Set("depth_alignment", DepthAlignmentOptionsToJson(depth_alignment, range_cloud));
@@ -168,14 +176,18 @@ RunSummary RunPipeline(const RunOptions& options, const std::function<bool()>& s
   RgbdFrameSource source(*dataset, options.SourceOptionsUsed());
   InformationFilter filter(options.filter, dataset->rig().colour);
   Progress progress("run", dataset->size(), options.quiet);
-  const SelectionResult selection = KeyframeSelector(options.selector).Run(
-      &source, &filter, [&progress](int done, int selected) {
-        progress.Update(done, std::to_string(selected) + " selected");
-      },
-      stop,
-      [&options](const SelectionDecision& d) {
-        if (options.verbose) std::fprintf(stderr, "%s\n", DescribeDecision(d).c_str());
-      });
+  const SelectionResult selection =
+      KeyframeSelector(options.selector)
+          .Run(
+              &source, &filter,
+              [&progress](int done, int selected) {
+                progress.Update(done, std::to_string(selected) + " selected");
+              },
+              stop,
+              [&options, &dataset](const SelectionDecision& d) {
+                if (options.verbose)
+                  std::fprintf(stderr, "%s\n", DescribeDecision(d, *dataset).c_str());
+              });
   progress.Finish();
 
   // Trajectories.

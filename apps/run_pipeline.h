@@ -56,6 +56,11 @@ struct RunSummary {
   Json report;
 };
 
+// The selector's and the filter's options as reports record them (the config file's
+// `selector` and `filter` sections).
+Json SelectorOptionsToJson(const SelectorOptions& selector);
+Json FilterOptionsToJson(const InformationFilterOptions& filter);
+
 // Runs the whole job and writes every output file into options.output. `stop`, if set, is
 // polled between selector decisions: when it returns true the run ends there and the outputs
 // of what was processed are written, with "interrupted": true in the report.

@@ -254,10 +254,14 @@ int WriteSyntheticDataset(const std::string& directory, const SyntheticDatasetOp
     if (error) std::rethrow_exception(error);
   }
 
-  // Stopped, the dataset ends before the first frame a worker did not write.
+  // Stopped, the dataset ends before the first frame a worker did not write. Its poses are
+  // still those of the loop `options` asked for, which synthetic.txt must then say.
   SyntheticDatasetOptions as_written = options;
   as_written.frames =
       static_cast<int>(std::find(written.begin(), written.end(), 0) - written.begin());
+  if (as_written.frames < options.frames) {
+    as_written.frames_per_loop = std::max(options.frames, options.frames_per_loop);
+  }
   Trajectory ground_truth;
   for (int i = 0; i < as_written.frames; ++i) {
     const double t = SyntheticTimestamp(options, i);

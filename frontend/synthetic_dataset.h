@@ -103,9 +103,10 @@ double SyntheticTimestamp(const SyntheticDatasetOptions& options, int i);
 // Writes the dataset into `directory` (created if missing; files already there with the
 // same names are replaced). Throws ConfigError for options failing Check() or a trajectory
 // that leaves the free space of the scene, DataError when a file cannot be written.
-// `stop` (optional) is polled before each frame is rendered; once it returns true the
-// dataset is closed with the frames 0..n-1 rendered so far (its lists, ground truth and
-// synthetic.txt say n). Returns n (options.frames unless stopped).
+// `stop` (optional) is polled before each frame is rendered, from the rendering threads at
+// once; once it returns true the dataset is closed with the frames 0..n-1 rendered so far
+// (its lists, ground truth and synthetic.txt say n, and synthetic.txt's frames_per_loop
+// the loop they lie on). Returns n (options.frames unless stopped).
 int WriteSyntheticDataset(const std::string& directory, const SyntheticDatasetOptions& options,
                           const std::function<bool()>& stop = nullptr);
 

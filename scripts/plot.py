@@ -109,7 +109,10 @@ def plot_run(out, report):
     total = report["frames_total"]
     fig, ax = plt.subplots(figsize=(9, 2.4))
     ax.vlines(selected, 0, 1, lw=0.8)
-    ax.set_xlim(0, max(total, 1))
+    # selected_frames.txt has dataset indices: the processed frames are first, first + stride, ...
+    dataset = report.get("options", {}).get("dataset", {})
+    first, stride = dataset.get("first", 0), dataset.get("stride", 1)
+    ax.set_xlim(first, first + max(total - 1, 1) * stride)
     ax.set_yticks([])
     ax.set_xlabel("frame")
     ax.set_title("%d of %d frames selected (%s selector)" % (

@@ -76,10 +76,15 @@ TEST(CliTest, QuietAndVerboseTogetherAreAUsageErrorNamingBoth) {
 TEST(CliTest, SigintEndsSimulateWith130AndTheRowsDone) {
   const fs::path out = TempPath("simulate");
   const int code = ExitCodeAfterSigint(
-      {"simulate", "--output", out.string(), "--runs", "50", "--buffers", "3", "--quiet"}, out,
-      300);
+      {"simulate", "--output", out.string(), "--runs", "50", "--buffers", "3", "--quiet"}, out, 30);
   ASSERT_EQ(code, 130);
-  EXPECT_NE(ReadFile(out / "report.json").find("\"interrupted\": true"), std::string::npos);
+  // Stopped within the first run (its first row takes seconds): a report of what was done,
+  // which may be nothing, not a crash.
+  const std::string report = ReadFile(out / "report.json");
+  EXPECT_NE(report.find("\"interrupted\": true"), std::string::npos) << report;
+  EXPECT_TRUE(report.find("\"runs\": 0,") != std::string::npos ||
+              report.find("\"runs\": 1,") != std::string::npos)
+      << report;
   EXPECT_NE(ReadFile(out / "table.md").find("Table I"), std::string::npos);
   fs::remove_all(out);
 }

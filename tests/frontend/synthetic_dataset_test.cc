@@ -250,7 +250,20 @@ TEST(SyntheticDatasetTest, AStopRequestLeavesAShorterCompleteDataset) {
   const std::unique_ptr<Dataset> dataset = OpenDataset(dir, DatasetOptions());
   EXPECT_EQ(dataset->size(), 3);
   EXPECT_EQ(dataset->GroundTruth().size(), 3u);
-  EXPECT_NE(ReadBytes(fs::path(dir) / "synthetic.txt").find("frames: 3\n"), std::string::npos);
+  // ... on the loop of the 5 frames asked for, as synthetic.txt says: a 3-frame dataset
+  // made with those options is the same frames.
+  const std::string description = ReadBytes(fs::path(dir) / "synthetic.txt");
+  EXPECT_NE(description.find("frames: 3\n"), std::string::npos) << description;
+  EXPECT_NE(description.find("frames_per_loop: 5\n"), std::string::npos) << description;
+  SyntheticDatasetOptions three = options;
+  three.frames = 3;
+  three.frames_per_loop = 5;
+  const std::string again = TempDir("stopped_again");
+  WriteSyntheticDataset(again, three);
+  EXPECT_EQ(ReadBytes(fs::path(again) / "groundtruth.txt"),
+            ReadBytes(fs::path(dir) / "groundtruth.txt"));
+  EXPECT_EQ(ReadBytes(fs::path(again) / "synthetic.txt"), description);
+  fs::remove_all(again);
   // Not stopped: every frame.
   EXPECT_EQ(WriteSyntheticDataset(dir, options, [] { return false; }), options.frames);
   fs::remove_all(dir);
