@@ -188,14 +188,19 @@ BundleAdjustmentResult::ResidualCheck CheckResiduals(const BundleAdjustmentProbl
       sum += e[axis] * e[axis];
     }
     check.rms[axis] = std::sqrt(sum / n);
-    const auto middle = magnitude.begin() + magnitude.size() / 2;
-    std::nth_element(magnitude.begin(), middle, magnitude.end());
-    check.robust_sigma[axis] = 1.4826 * *middle;  // the MAD of a zero-mean normal is 0.6745 sigma
+    check.robust_sigma[axis] = RobustSigma(std::move(magnitude));
   }
   return check;
 }
 
 }  // namespace
+
+double RobustSigma(std::vector<double> magnitudes) {
+  if (magnitudes.empty()) return 0.0;
+  const auto middle = magnitudes.begin() + magnitudes.size() / 2;
+  std::nth_element(magnitudes.begin(), middle, magnitudes.end());
+  return 1.4826 * *middle;
+}
 
 std::string BaRobustLossName(BaRobustLoss loss) {
   return loss == BaRobustLoss::kHuber ? "huber" : "none";

@@ -172,6 +172,11 @@ struct BundleAdjustmentResult {
   double covariance_time_s = 0.0;
 };
 
+// 1.4826 x the median of `magnitudes` (|e_i| / sigma_i): the sigma of zero-mean normal
+// errors, robust to outliers (the MAD of a zero-mean normal is 0.6745 sigma); 0 for none.
+// The residual check's robust_sigma and a depth alignment's use it.
+double RobustSigma(std::vector<double> magnitudes);
+
 // Refines the problem's poses and features. Throws ConfigError when the options fail Check
 // and DataError (naming the frame and the feature) when an observation refers to an unknown
 // frame or feature, has a Q that is not positive definite, or its point lies behind the

@@ -92,13 +92,6 @@ Eigen::Isometry3d Increment(const Vector6d& omega_v) {
   return T;
 }
 
-double RobustSigma(std::vector<double> abs_whitened) {
-  if (abs_whitened.empty()) return 0.0;
-  const auto middle = abs_whitened.begin() + abs_whitened.size() / 2;
-  std::nth_element(abs_whitened.begin(), middle, abs_whitened.end());
-  return 1.4826 * *middle;
-}
-
 std::vector<int> Samples(const RangeCloud& cloud, int step) {
   std::vector<int> samples;
   for (int y = 0; y < cloud.grid.height; y += step) {
