@@ -140,7 +140,12 @@ void ApplyConfigFile(const std::string& path, RunOptions* o) {
          x->Double("min_view_change_deg", &o->selector.min_view_change_deg);
        }},
       {"filter",
-       [&](Section* x) { x->Double("anchor_information", &o->filter.anchor_information); }},
+       [&](Section* x) {
+         x->Double("anchor_information", &o->filter.anchor_information);
+         x->Bool("iterative_recovery", &o->filter.iterative_recovery);
+         x->Double("cg_tolerance", &o->filter.cg_tolerance);
+         x->Int("max_dense_pose_dim", &o->filter.max_dense_pose_dim);
+       }},
       {"map",
        [&](Section* x) {
          x->Double("voxel_size_m", &o->map.voxel_size_m);

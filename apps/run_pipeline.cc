@@ -104,7 +104,11 @@ Json SelectorOptionsToJson(const SelectorOptions& selector) {
 }
 
 Json FilterOptionsToJson(const InformationFilterOptions& filter) {
-  return Json::Object().Set("anchor_information", filter.anchor_information);
+  return Json::Object()
+      .Set("anchor_information", filter.anchor_information)
+      .Set("iterative_recovery", filter.iterative_recovery)
+      .Set("cg_tolerance", filter.cg_tolerance)
+      .Set("max_dense_pose_dim", filter.max_dense_pose_dim);
 }
 
 RgbdSourceOptions RunOptions::SourceOptionsUsed() const {

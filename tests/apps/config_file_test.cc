@@ -38,7 +38,8 @@ TEST(ConfigFileTest, ValuesOverrideDefaults) {
   RunOptions options;
   ApplyConfigFile(WriteTemp("ok", "%YAML:1.0\nselector: { kind: \"all\", buffer: 5 }\n"
                                   "features: { image_scale: 1.0 }\n"
-                                  "registration: { inlier_chi2: 11.34, use_point_covariances: 1 }\n"),
+                                  "registration: { inlier_chi2: 11.34, use_point_covariances: 1 }\n"
+                                  "filter: { iterative_recovery: 0, max_dense_pose_dim: 0 }\n"),
                   &options);
   EXPECT_EQ(options.selector.kind, SelectorKind::kAll);
   EXPECT_EQ(options.selector.buffer_size, 5);
@@ -46,6 +47,9 @@ TEST(ConfigFileTest, ValuesOverrideDefaults) {
   EXPECT_EQ(options.source.frontend.features.max_features, FeatureOptions().max_features);
   EXPECT_EQ(options.source.frontend.registration.inlier_chi2, 11.34);
   EXPECT_TRUE(options.source.frontend.registration.use_point_covariances);
+  EXPECT_FALSE(options.filter.iterative_recovery);
+  EXPECT_EQ(options.filter.max_dense_pose_dim, 0);
+  EXPECT_EQ(options.filter.cg_tolerance, InformationFilterOptions().cg_tolerance);
 }
 
 TEST(ConfigFileTest, BadFilesNameTheKey) {
@@ -57,6 +61,10 @@ TEST(ConfigFileTest, BadFilesNameTheKey) {
   EXPECT_NE(ErrorOf("%YAML:1.0\nselector: { kind: \"greedy\" }\n").find("selector.kind"),
             std::string::npos);
   EXPECT_NE(ErrorOf("%YAML:1.0\nmap: { voxel_size_m: .nan }\n").find("map"), std::string::npos);
+  EXPECT_NE(ErrorOf("%YAML:1.0\nfilter: { cg_tolerance: 0 }\n").find("cg_tolerance"),
+            std::string::npos);
+  EXPECT_NE(ErrorOf("%YAML:1.0\nfilter: { iterative_recovery: 2 }\n").find("iterative_recovery"),
+            std::string::npos);
   EXPECT_NE(ErrorOf("%YAML:1.0\ndepth_alignment: { min_overlap: 0 }\n").find("min_overlap"),
             std::string::npos);
   EXPECT_NE(ErrorOf("%YAML:1.0\ndepth_alignment: { grid_step: 0 }\n").find("step"),
