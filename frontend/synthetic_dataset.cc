@@ -262,6 +262,14 @@ int WriteSyntheticDataset(const std::string& directory, const SyntheticDatasetOp
   if (as_written.frames < options.frames) {
     as_written.frames_per_loop = std::max(options.frames, options.frames_per_loop);
   }
+  // Frames another worker wrote past that point are not part of it: no image is left unlisted.
+  for (int i = as_written.frames; i < options.frames; ++i) {
+    if (!written[i]) continue;
+    const std::string stamp = StampString(SyntheticTimestamp(options, i));
+    std::error_code ignored;
+    std::filesystem::remove(JoinPath(directory, colour_dir + "/" + stamp + ".png"), ignored);
+    std::filesystem::remove(JoinPath(directory, range_dir + "/" + stamp + ".png"), ignored);
+  }
   Trajectory ground_truth;
   for (int i = 0; i < as_written.frames; ++i) {
     const double t = SyntheticTimestamp(options, i);

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -267,6 +268,27 @@ TEST(SyntheticDatasetTest, AStopRequestLeavesAShorterCompleteDataset) {
   // Not stopped: every frame.
   EXPECT_EQ(WriteSyntheticDataset(dir, options, [] { return false; }), options.frames);
   fs::remove_all(dir);
+}
+
+// With several workers a stop can come after a later frame than the dataset's last was
+// written; its images are removed, so every image left in the directory is listed.
+TEST(SyntheticDatasetTest, AStoppedParallelRunLeavesNoUnlistedImage) {
+  SyntheticDatasetOptions options = SmallOptions(SyntheticSensor::kRgbd);
+  options.threads = 2;
+  for (int stop_after = 1; stop_after <= options.frames; ++stop_after) {
+    const std::string dir = TempDir("stopped_parallel");
+    std::atomic<int> polls{0};
+    const int frames =
+        WriteSyntheticDataset(dir, options, [&polls, stop_after] { return ++polls > stop_after; });
+    const std::unique_ptr<Dataset> dataset = OpenDataset(dir, DatasetOptions());
+    ASSERT_EQ(dataset->size(), frames);
+    for (const std::string& folder : {"rgb", "depth"}) {
+      const auto files = fs::directory_iterator(fs::path(dir) / folder);
+      EXPECT_EQ(std::distance(fs::begin(files), fs::end(files)), frames)
+          << folder << ", stopped after " << stop_after << " polls";
+    }
+    fs::remove_all(dir);
+  }
 }
 
 }  // namespace
