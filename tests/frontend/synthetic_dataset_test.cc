@@ -270,8 +270,9 @@ TEST(SyntheticDatasetTest, AStopRequestLeavesAShorterCompleteDataset) {
   fs::remove_all(dir);
 }
 
-// With several workers a stop can come after a later frame than the dataset's last was
-// written; its images are removed, so every image left in the directory is listed.
+// With several workers, a frame past the first unwritten one may be written before the stop
+// comes; the dataset ends before that gap and the later images are removed: every image left
+// in the directory is listed.
 TEST(SyntheticDatasetTest, AStoppedParallelRunLeavesNoUnlistedImage) {
   SyntheticDatasetOptions options = SmallOptions(SyntheticSensor::kRgbd);
   options.threads = 2;
