@@ -35,8 +35,9 @@ bool InformationFilterOptions::Check(std::string* why) const {
     reason << "min_depth_m must be positive, got " << min_depth_m;
   } else if (!(spare_capacity >= 0.0) || !std::isfinite(spare_capacity)) {
     reason << "spare_capacity must be >= 0 and finite, got " << spare_capacity;
-  } else if (max_dense_pose_dim < 0) {
-    reason << "max_dense_pose_dim must be >= 0, got " << max_dense_pose_dim;
+  } else if (max_dense_pose_dim < 0 || (max_dense_pose_dim > 0 && max_dense_pose_dim < 6)) {
+    reason << "max_dense_pose_dim must be 0 (always sparse) or at least 6 (one pose), got "
+           << max_dense_pose_dim;
   } else if (!(cg_tolerance > 0.0) || !std::isfinite(cg_tolerance)) {
     reason << "cg_tolerance must be positive and finite, got " << cg_tolerance;
   } else if (cg_max_iterations < 1) {

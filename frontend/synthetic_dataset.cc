@@ -6,7 +6,9 @@
 #include <exception>
 #include <filesystem>
 #include <sstream>
+#include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include <glog/logging.h>
@@ -233,13 +235,19 @@ int WriteSyntheticDataset(const std::string& directory, const SyntheticDatasetOp
                           : std::max(1, static_cast<int>(std::thread::hardware_concurrency())));
   std::vector<std::exception_ptr> errors(workers);
   std::vector<char> written(options.frames, 0);  // each entry set by one worker only
+  // Frame i's colour and range images.
+  const auto image_paths = [&](int i) {
+    const std::string stamp = StampString(SyntheticTimestamp(options, i));
+    return std::make_pair(JoinPath(directory, colour_dir + "/" + stamp + ".png"),
+                          JoinPath(directory, range_dir + "/" + stamp + ".png"));
+  };
   auto work = [&](int k) {
     try {
       for (int i = k; i < options.frames && !(stop && stop()); i += workers) {
         const SyntheticFrame frame = RenderSyntheticFrame(scene, rig, poses[i], single_thread, i);
-        const std::string stamp = StampString(frame.timestamp);
-        WritePng(JoinPath(directory, colour_dir + "/" + stamp + ".png"), frame.colour);
-        WritePng(JoinPath(directory, range_dir + "/" + stamp + ".png"), frame.range_raw);
+        const auto [colour_path, range_path] = image_paths(i);
+        WritePng(colour_path, frame.colour);
+        WritePng(range_path, frame.range_raw);
         written[i] = 1;
       }
     } catch (...) {
@@ -265,10 +273,15 @@ int WriteSyntheticDataset(const std::string& directory, const SyntheticDatasetOp
   // Frames another worker wrote past that point are not part of it: no image is left unlisted.
   for (int i = as_written.frames; i < options.frames; ++i) {
     if (!written[i]) continue;
-    const std::string stamp = StampString(SyntheticTimestamp(options, i));
-    std::error_code ignored;
-    std::filesystem::remove(JoinPath(directory, colour_dir + "/" + stamp + ".png"), ignored);
-    std::filesystem::remove(JoinPath(directory, range_dir + "/" + stamp + ".png"), ignored);
+    const auto [colour_path, range_path] = image_paths(i);
+    for (const std::string& path : {colour_path, range_path}) {
+      std::error_code error;
+      std::filesystem::remove(path, error);
+      if (error) {
+        throw DataError("cannot remove " + path +
+                        " (not part of the stopped dataset): " + error.message());
+      }
+    }
   }
   Trajectory ground_truth;
   for (int i = 0; i < as_written.frames; ++i) {

@@ -50,6 +50,10 @@ TEST(ConfigFileTest, ValuesOverrideDefaults) {
   EXPECT_FALSE(options.filter.iterative_recovery);
   EXPECT_EQ(options.filter.max_dense_pose_dim, 0);
   EXPECT_EQ(options.filter.cg_tolerance, InformationFilterOptions().cg_tolerance);
+  // The report shows the filter options used.
+  const std::string json = options.ToJson().Dump();
+  EXPECT_NE(json.find("\"iterative_recovery\": false"), std::string::npos) << json;
+  EXPECT_NE(json.find("\"max_dense_pose_dim\": 0"), std::string::npos) << json;
 }
 
 TEST(ConfigFileTest, BadFilesNameTheKey) {
@@ -64,6 +68,8 @@ TEST(ConfigFileTest, BadFilesNameTheKey) {
   EXPECT_NE(ErrorOf("%YAML:1.0\nfilter: { cg_tolerance: 0 }\n").find("cg_tolerance"),
             std::string::npos);
   EXPECT_NE(ErrorOf("%YAML:1.0\nfilter: { iterative_recovery: 2 }\n").find("iterative_recovery"),
+            std::string::npos);
+  EXPECT_NE(ErrorOf("%YAML:1.0\nfilter: { max_dense_pose_dim: 3 }\n").find("max_dense_pose_dim"),
             std::string::npos);
   EXPECT_NE(ErrorOf("%YAML:1.0\ndepth_alignment: { min_overlap: 0 }\n").find("min_overlap"),
             std::string::npos);
