@@ -35,28 +35,23 @@ SlamEstimate InitialEstimate(const BundleAdjustmentProblem& problem) {
 std::map<int, Eigen::Isometry3d> GroundTruthPoses(const StoredBaProblem& stored,
                                                   const std::string& gt_path) {
   const Trajectory gt = ReadTumTrajectoryForEvaluation(gt_path);
-  std::vector<double> gt_stamps, frame_stamps;
-  std::vector<int> frames;
+  std::vector<double> gt_stamps;
   for (const TimedPose& pose : gt) gt_stamps.push_back(pose.timestamp);
-  for (const auto& [frame, stamp] : stored.timestamps) {
-    frames.push_back(frame);
-    frame_stamps.push_back(stamp);
-  }
-  std::vector<size_t> order(frames.size());
-  for (size_t k = 0; k < order.size(); ++k) order[k] = k;
-  std::sort(order.begin(), order.end(),
-            [&](size_t a, size_t b) { return frame_stamps[a] < frame_stamps[b]; });
-  std::vector<double> sorted_stamps;
-  for (const size_t k : order) sorted_stamps.push_back(frame_stamps[k]);
+  // AssociateStamps takes stamps in time order.
+  std::vector<std::pair<double, int>> by_time;  // (timestamp, frame)
+  for (const auto& [frame, stamp] : stored.timestamps) by_time.emplace_back(stamp, frame);
+  std::sort(by_time.begin(), by_time.end());
+  std::vector<double> frame_stamps;
+  for (const auto& [stamp, frame] : by_time) frame_stamps.push_back(stamp);
   std::map<int, Eigen::Isometry3d> poses;
-  for (const StampMatch& m : AssociateStamps(sorted_stamps, gt_stamps, 0.0, 0.02)) {
-    poses[frames[order[m.first_index]]] = gt[m.second_index].T_w_c;
+  for (const StampMatch& m : AssociateStamps(frame_stamps, gt_stamps, 0.0, 0.02)) {
+    poses[by_time[m.first_index].second] = gt[m.second_index].T_w_c;
   }
-  for (const int frame : frames) {
+  for (const auto& [frame, stamp] : stored.timestamps) {
     if (poses.count(frame) == 0) {
-      throw DataError("frame " + std::to_string(frame) + " (t = " +
-                      std::to_string(stored.timestamps.at(frame)) + " s) has no pose in " +
-                      gt_path + " within 0.02 s: --from-ground-truth needs one for every frame");
+      throw DataError("frame " + std::to_string(frame) + " (t = " + std::to_string(stamp) +
+                      " s) has no pose in " + gt_path +
+                      " within 0.02 s: --from-ground-truth needs one for every frame");
     }
   }
   return poses;

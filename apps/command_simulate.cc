@@ -183,7 +183,7 @@ int SimulateCommand(const CommandArgs& args) {
     simulation.noise_seed = seed + static_cast<uint32_t>(run) + 1;
     const SimulatedDataset data = SimulatePaperScenario(simulation);
     const KnownAssociationInput input{data.observations, data.T_w_c_true, data.camera};
-    for (size_t i = 0; i < rows_options.size() && !interrupted; ++i) {
+    for (size_t i = 0; i < rows_options.size(); ++i) {
       interrupted = interrupt.requested();
       if (interrupted) break;
       KnownAssociationMetrics metrics =

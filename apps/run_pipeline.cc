@@ -20,28 +20,29 @@
 namespace ieslam {
 namespace {
 
-// One log line per selector decision, for --verbose; frames by their dataset index.
-std::string DescribeDecision(const SelectionDecision& d, const Dataset& dataset) {
-  std::string line = "run: " + d.reason + ": candidates";
-  char number[32];
-  for (size_t k = 0; k < d.candidates.size(); ++k) {
-    line += (k == 0 ? " " : ",") + std::to_string(dataset.info(d.candidates[k]).source_index);
-    if (k < d.gains.size()) {
-      std::snprintf(number, sizeof(number), " (gain %.1f, map %.1f)", d.gains[k], d.map_gains[k]);
-      line += number;
-    }
-  }
-  line += " -> added";
-  for (int frame : d.added) line += " " + std::to_string(dataset.info(frame).source_index);
-  return line;
-}
-
 // Frames by their index in the dataset (before --first/--last/--stride), as
 // selected_frames.txt and frames_skipped name them.
 std::vector<int> SourceIndices(const Dataset& dataset, const std::vector<int>& frames) {
   std::vector<int> indices;
   for (const int frame : frames) indices.push_back(dataset.info(frame).source_index);
   return indices;
+}
+
+// One log line per selector decision, for --verbose; frames by their dataset index.
+std::string DescribeDecision(const SelectionDecision& d, const Dataset& dataset) {
+  std::string line = "run: " + d.reason + ": candidates";
+  char number[32];
+  const std::vector<int> candidates = SourceIndices(dataset, d.candidates);
+  for (size_t k = 0; k < candidates.size(); ++k) {
+    line += (k == 0 ? " " : ",") + std::to_string(candidates[k]);
+    if (k < d.gains.size()) {
+      std::snprintf(number, sizeof(number), " (gain %.1f, map %.1f)", d.gains[k], d.map_gains[k]);
+      line += number;
+    }
+  }
+  line += " -> added";
+  for (const int index : SourceIndices(dataset, d.added)) line += " " + std::to_string(index);
+  return line;
 }
 
 // Threads that load and process frames ahead of the selector: none in the deterministic
