@@ -16,8 +16,8 @@
 namespace ieslam {
 
 struct RefinementOutcome {
-  Json comparison;        // report.json's filter_vs_smoother, with the solver's summary as "ba"
-  double seconds = 0.0;   // the bundle adjustment's wall time
+  Json comparison;       // report.json's filter_vs_smoother, with the solver's summary as "ba"
+  double seconds = 0.0;  // the bundle adjustment's wall time
   double ate_refined_m = -1.0;  // < 0: no ground truth given
 };
 

@@ -165,7 +165,8 @@ int RefineCommand(const CommandArgs& args) {
   std::printf("refine: %zu poses, %zu features, %zu observations, %.2f s\n",
               stored.problem.T_w_c.size(), stored.problem.p_w.size(),
               stored.problem.observations.size(), refined.seconds);
-  if (refined.ate_refined_m >= 0.0) std::printf("refine: ATE RMSE refined keyframes %.4f m\n", refined.ate_refined_m);
+  if (refined.ate_refined_m >= 0.0)
+    std::printf("refine: ATE RMSE refined keyframes %.4f m\n", refined.ate_refined_m);
   std::printf("refine: results in %s\n", out.c_str());
   return 0;
 }

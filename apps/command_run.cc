@@ -41,7 +41,8 @@ int RunCommand(const CommandArgs& args) {
   options.dataset_options = DatasetOptionsFromFlags(flags);
   const std::string selector = flags.GetString("selector", "info");
   if (flags.Has("selector") && !ParseSelectorKind(selector, &options.selector.kind)) {
-    throw ConfigError("--selector must be info, all, interval or deadreckoning, got '" + selector + "'");
+    throw ConfigError("--selector must be info, all, interval or deadreckoning, got '" + selector +
+                      "'");
   }
   options.selector.buffer_size = flags.GetInt("buffer", options.selector.buffer_size, 1, 100);
   options.selector.interval = flags.GetInt("interval", options.selector.interval, 1, 100000);
@@ -49,7 +50,8 @@ int RunCommand(const CommandArgs& args) {
   options.threads = flags.GetInt("threads", 0, 0, 256);
   options.quiet = flags.Has("quiet");
   options.verbose = flags.Has("verbose");
-  if (options.quiet && options.verbose) throw ConfigError("--quiet and --verbose exclude each other");
+  if (options.quiet && options.verbose)
+    throw ConfigError("--quiet and --verbose exclude each other");
   options.refine = flags.Has("refine");
   RunSummary summary;
   {
@@ -63,7 +65,8 @@ int RunCommand(const CommandArgs& args) {
   if (summary.ate_keyframes_m >= 0.0) {
     std::printf("run: ATE RMSE keyframes %.4f m, all frames %.4f m\n", summary.ate_keyframes_m,
                 summary.ate_trajectory_m);
-    if (options.refine) std::printf("run: ATE RMSE refined keyframes %.4f m\n", summary.ate_refined_m);
+    if (options.refine)
+      std::printf("run: ATE RMSE refined keyframes %.4f m\n", summary.ate_refined_m);
   }
   std::printf("run: results in %s\n", options.output.c_str());
   if (summary.interrupted) {

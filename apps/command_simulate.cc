@@ -58,7 +58,8 @@ Json RowToJson(const TableRow& row) {
       .Set("final_pose_error_m", row.final_pose_error_m)
       .Set("ate_rmse_m", row.ate_rmse_m)
       .Set("mean_nees", row.mean_nees)
-      .Set("nees_band", Json::ArrayOf(std::vector<double>{row.nees_band.first, row.nees_band.second}))
+      .Set("nees_band",
+           Json::ArrayOf(std::vector<double>{row.nees_band.first, row.nees_band.second}))
       .Set("within_2sigma", row.within_2sigma)
       .Set("refined_ate_rmse_m", row.refined_ate_rmse_m)
       .Set("refined_not_worse", row.refined_not_worse)
@@ -99,17 +100,19 @@ std::string TableMarkdown(const std::vector<TableRow>& rows, int runs, uint32_t 
     << "|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   char line[512];
   for (const TableRow& r : rows) {
-    std::snprintf(line, sizeof(line),
-                  "| %s | %s | %.1f / %.0f | %.0f | %.3f | %.4f | %.4f | %.2f | [%.2f, %.2f] | %.1f%% | "
-                  "%.4f | %.0f%% |\n",
-                  r.selector.c_str(), r.buffer > 0 ? std::to_string(r.buffer).c_str() : "-",
-                  r.frames_used, r.frames_total, r.state_dim, r.seconds, r.final_pose_error_m,
-                  r.ate_rmse_m, r.mean_nees, r.nees_band.first, r.nees_band.second,
-                  100.0 * r.within_2sigma, r.refined_ate_rmse_m, 100.0 * r.refined_not_worse);
+    std::snprintf(
+        line, sizeof(line),
+        "| %s | %s | %.1f / %.0f | %.0f | %.3f | %.4f | %.4f | %.2f | [%.2f, %.2f] | %.1f%% | "
+        "%.4f | %.0f%% |\n",
+        r.selector.c_str(), r.buffer > 0 ? std::to_string(r.buffer).c_str() : "-", r.frames_used,
+        r.frames_total, r.state_dim, r.seconds, r.final_pose_error_m, r.ate_rmse_m, r.mean_nees,
+        r.nees_band.first, r.nees_band.second, 100.0 * r.within_2sigma, r.refined_ate_rmse_m,
+        100.0 * r.refined_not_worse);
     s << line;
   }
   if (rows.size() > 1 && rows[0].selector == "all") {
-    s << "\nRatios to the all-frames EIF:\n\n| buffer | frames | time | state dim |\n|---|---|---|---|\n";
+    s << "\nRatios to the all-frames EIF:\n\n| buffer | frames | time | state dim "
+         "|\n|---|---|---|---|\n";
     for (size_t i = 1; i < rows.size(); ++i) {
       std::snprintf(line, sizeof(line), "| %d | %.2f | %.2f | %.2f |\n", rows[i].buffer,
                     rows[i].frames_used / rows[0].frames_used, rows[i].seconds / rows[0].seconds,

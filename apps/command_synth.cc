@@ -13,8 +13,9 @@ int SynthCommand(const CommandArgs& args) {
   const std::vector<FlagSpec> specs = {
       {"output", "DIR", "dataset directory to write (required)"},
       {"frames", "N", "number of frames at 30 Hz (default 300)"},
-      {"sensor", "S", "rgbd (640x480 registered colour + depth, TUM layout) or pair (1024x768 "
-                      "camera + 176x144 range imager, pair layout) (default rgbd)"},
+      {"sensor", "S",
+       "rgbd (640x480 registered colour + depth, TUM layout) or pair (1024x768 "
+       "camera + 176x144 range imager, pair layout) (default rgbd)"},
       {"seed", "S", "scene seed; the sensor noise is seeded with S + 1 (default 1)"},
       {"threads", "N", "rendering threads, 0 = all cores; never changes the output (default 0)"}};
   const Flags flags(args, specs);

@@ -40,7 +40,8 @@ Flags::Flags(const std::vector<std::string>& args, const std::vector<FlagSpec>& 
       if (inline_value) throw ConfigError("flag --" + name + " takes no value");
       value = "1";
     } else if (!inline_value) {
-      if (i + 1 >= args.size()) throw ConfigError("flag --" + name + " needs a value " + spec->value);
+      if (i + 1 >= args.size())
+        throw ConfigError("flag --" + name + " needs a value " + spec->value);
       value = args[++i];
     }
     if (values_.count(name)) throw ConfigError("flag --" + name + " given twice");

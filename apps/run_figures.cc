@@ -47,11 +47,13 @@ void WriteInformationBlocks(const InformationFilter& filter, const std::string& 
   for (int col = 0; col < upper.outerSize(); ++col) {
     for (std::decay_t<decltype(upper)>::InnerIterator it(upper, col); it; ++it) {
       const int a = block_of[it.row()], b = block_of[col];
-      if (a != b && a >= 0 && b >= 0 && it.value() != 0.0) pairs.emplace(std::min(a, b), std::max(a, b));
+      if (a != b && a >= 0 && b >= 0 && it.value() != 0.0)
+        pairs.emplace(std::min(a, b), std::max(a, b));
     }
   }
   WriteFileAtomically(path, [&](std::ostream& out) {
-    out << "# ieslam: nonzero blocks of the final information matrix, state order (P pose, F feature)\n";
+    out << "# ieslam: nonzero blocks of the final information matrix, state order (P pose, F "
+           "feature)\n";
     out << "blocks " << kinds << "\n";
     for (const auto& [a, b] : pairs) out << a << ' ' << b << "\n";
   });

@@ -133,7 +133,9 @@ Json RunOptions::ToJson() const {
       .Set("edge_threshold", f.edge_threshold)
       .Set("octave_layers", f.octave_layers)
       .Set("image_scale", f.image_scale);
-  json["matching"].Set("ratio", source.frontend.matching.ratio).Set("mutual", source.frontend.matching.mutual);
+  json["matching"]
+      .Set("ratio", source.frontend.matching.ratio)
+      .Set("mutual", source.frontend.matching.mutual);
   json["lifting"]
       .Set("window_radius", l.window_radius)
       .Set("sigma_multiplier", l.sigma_multiplier)
@@ -216,7 +218,8 @@ RunSummary RunPipeline(const RunOptions& options, const std::function<bool()>& s
   }
   WarnAboutSkippedFrames(summary.frames_skipped);
   const std::string out = options.output;
-  WriteTumTrajectory(JoinPath(out, "keyframes.tum"), keyframes, "ieslam keyframes (filter estimate)");
+  WriteTumTrajectory(JoinPath(out, "keyframes.tum"), keyframes,
+                     "ieslam keyframes (filter estimate)");
   WriteTumTrajectory(JoinPath(out, "trajectory.tum"), trajectory, "ieslam every processed frame");
   std::string selected_lines;
   for (int frame : selection.selected) {
@@ -231,7 +234,8 @@ RunSummary RunPipeline(const RunOptions& options, const std::function<bool()>& s
   }
   const bool has_gt = dataset->has_ground_truth();
   if (has_gt) {
-    summary.ate_keyframes_m = AteOfFiles(JoinPath(out, "groundtruth.tum"), JoinPath(out, "keyframes.tum"));
+    summary.ate_keyframes_m =
+        AteOfFiles(JoinPath(out, "groundtruth.tum"), JoinPath(out, "keyframes.tum"));
     summary.ate_trajectory_m =
         AteOfFiles(JoinPath(out, "groundtruth.tum"), JoinPath(out, "trajectory.tum"));
   }

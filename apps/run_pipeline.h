@@ -50,7 +50,7 @@ struct RunSummary {
   int frames_selected = 0;
   std::vector<std::pair<int, std::string>> frames_skipped;
   int state_dim = 0;
-  double ate_keyframes_m = -1.0;   // < 0: no ground truth
+  double ate_keyframes_m = -1.0;  // < 0: no ground truth
   double ate_trajectory_m = -1.0;
   double ate_refined_m = -1.0;
   Json report;

@@ -6,8 +6,8 @@
 #include <set>
 #include <sstream>
 
-#include <Eigen/Cholesky>
 #include <glog/logging.h>
+#include <Eigen/Cholesky>
 
 #include "core/error.h"
 #include "core/file_util.h"
@@ -116,8 +116,10 @@ StoredBaProblem ReadBaProblem(const std::string& path) {
     fields >> record;
     LineReader read(&fields, path + ":" + std::to_string(number));
     if (!header) {
-      if (record != kMagic) throw DataError(read.where() + ": not an ieslam bundle-adjustment problem");
-      if (read.Integer("version") != kVersion) throw DataError(read.where() + ": unsupported version");
+      if (record != kMagic)
+        throw DataError(read.where() + ": not an ieslam bundle-adjustment problem");
+      if (read.Integer("version") != kVersion)
+        throw DataError(read.where() + ": unsupported version");
       header = true;
     } else if (record == "camera") {
       PinholeCamera& c = stored.camera;
@@ -142,7 +144,8 @@ StoredBaProblem ReadBaProblem(const std::string& path) {
       for (int r = 0; r < 3; ++r) T.translation()(r) = read.Number("translation");
       const Eigen::Matrix3d R = T.linear();
       if ((R.transpose() * R - Eigen::Matrix3d::Identity()).norm() > 1e-6 || R.determinant() < 0) {
-        throw DataError(read.where() + ": pose " + std::to_string(frame) + " has no rotation matrix");
+        throw DataError(read.where() + ": pose " + std::to_string(frame) +
+                        " has no rotation matrix");
       }
       if (!p.T_w_c.emplace(frame, T).second) {
         throw DataError(read.where() + ": pose " + std::to_string(frame) + " given twice");
@@ -162,11 +165,13 @@ StoredBaProblem ReadBaProblem(const std::string& path) {
       if (!p.T_w_c.count(o.frame_id) || !p.p_w.count(o.observation.feature_id)) {
         throw DataError(read.where() + ": observation of an unknown pose " +
                         std::to_string(o.frame_id) + " or feature " +
-                        std::to_string(o.observation.feature_id) + " (poses and features come first)");
+                        std::to_string(o.observation.feature_id) +
+                        " (poses and features come first)");
       }
       for (int r = 0; r < 3; ++r) o.observation.z(r) = read.Number("measurement");
       for (int r = 0; r < 3; ++r) {
-        for (int k = r; k < 3; ++k) o.observation.Q(r, k) = o.observation.Q(k, r) = read.Number("Q");
+        for (int k = r; k < 3; ++k)
+          o.observation.Q(r, k) = o.observation.Q(k, r) = read.Number("Q");
       }
       if (o.observation.Q.llt().info() != Eigen::Success) {
         throw DataError(read.where() + ": Q is not positive definite");
@@ -178,7 +183,8 @@ StoredBaProblem ReadBaProblem(const std::string& path) {
     read.End();
   }
   if (!header || !camera || p.T_w_c.empty()) {
-    throw DataError(path + ": incomplete bundle-adjustment problem (header, camera or poses missing)");
+    throw DataError(path +
+                    ": incomplete bundle-adjustment problem (header, camera or poses missing)");
   }
   if (p.anchor_frame_id >= 0 && !p.T_w_c.count(p.anchor_frame_id)) {
     throw DataError(path + ": anchor frame " + std::to_string(p.anchor_frame_id) + " has no pose");

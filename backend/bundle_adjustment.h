@@ -29,7 +29,7 @@ class InformationFilter;
 enum class BaRobustLoss { kNone, kHuber };
 enum class BaLinearSolver { kSparseSchur, kSparseNormalCholesky };
 
-std::string BaRobustLossName(BaRobustLoss loss);        // "none", "huber"
+std::string BaRobustLossName(BaRobustLoss loss);  // "none", "huber"
 // The loss named `name` (as BaRobustLossName writes it); false for any other name.
 bool ParseBaRobustLoss(const std::string& name, BaRobustLoss* loss);
 std::string BaLinearSolverName(BaLinearSolver solver);  // "sparse_schur", ...

@@ -9,8 +9,8 @@
 #include <unordered_set>
 #include <utility>
 
-#include <Eigen/Cholesky>
 #include <glog/logging.h>
+#include <Eigen/Cholesky>
 
 #include "core/error.h"
 #include "core/stopwatch.h"
@@ -65,7 +65,8 @@ void ValidateObservations(int frame_id, const std::vector<FeatureObservation>& o
     if (!obs.Q.allFinite() || Eigen::LLT<Eigen::Matrix3d>(obs.Q).info() != Eigen::Success) {
       std::ostringstream msg;
       msg << FrameName(frame_id) << ": noise covariance Q of feature " << obs.feature_id
-          << " is not positive definite:\n" << obs.Q;
+          << " is not positive definite:\n"
+          << obs.Q;
       throw DataError(msg.str());
     }
   }
@@ -92,9 +93,7 @@ struct InformationFilter::Linearization {
 
 InformationFilter::InformationFilter(const InformationFilterOptions& options,
                                      const PinholeCamera& camera)
-    : options_(options),
-      camera_(camera),
-      cholesky_() {
+    : options_(options), camera_(camera), cholesky_() {
   std::string why;
   if (!options_.Check(&why)) throw ConfigError("InformationFilterOptions: " + why);
   cholesky_ = std::make_unique<SparseCholesky>(options_.ordering, options_.spare_capacity);
@@ -121,8 +120,8 @@ InformationFilter::Linearization InformationFilter::Linearize(
     block.feature_id = obs.feature_id;
     block.is_new = !HasFeature(obs.feature_id);
     if (block.is_new && static_cast<int>(new_blocks.size()) >= max_new_features) continue;
-    block.p_w = block.is_new ? ObservationToWorld(T_w_c, obs.z, camera_)
-                             : FeatureEstimate(obs.feature_id);
+    block.p_w =
+        block.is_new ? ObservationToWorld(T_w_c, obs.z, camera_) : FeatureEstimate(obs.feature_id);
     const double depth = WorldToCamera(T_w_c, block.p_w).z();
     if (!(depth > options_.min_depth_m)) {
       std::ostringstream msg;
@@ -232,8 +231,8 @@ void InformationFilter::Update(int frame_id, const Vector6d& T_w_c,
   info_vector_.conservativeResize(new_dim);
   for (int b = 0; b < static_cast<int>(lin.blocks.size()); ++b) {
     const Linearization::Block& block = lin.blocks[b];
-    const int offset = block.is_new ? old_dim + 3 * (b - lin.num_known)
-                                    : feature_offset_.at(block.feature_id);
+    const int offset =
+        block.is_new ? old_dim + 3 * (b - lin.num_known) : feature_offset_.at(block.feature_id);
     if (block.is_new) info_vector_.segment<3>(offset).setZero();
     info_vector_.segment<3>(offset) += block.i_f;
   }
@@ -247,8 +246,8 @@ void InformationFilter::Update(int frame_id, const Vector6d& T_w_c,
   std::vector<SchurObservation> schur_observations;
   for (int b = 0; b < static_cast<int>(lin.blocks.size()); ++b) {
     const Linearization::Block& block = lin.blocks[b];
-    const int offset = block.is_new ? old_dim + 3 * (b - lin.num_known)
-                                    : feature_offset_.at(block.feature_id);
+    const int offset =
+        block.is_new ? old_dim + 3 * (b - lin.num_known) : feature_offset_.at(block.feature_id);
     if (!block.is_new) increments.push_back({offset, block.I_ff});
     if (schur_ != nullptr) {
       schur_observations.push_back({offset, block.is_new, block.I_ff, block.I_pf});
@@ -336,13 +335,12 @@ void InformationFilter::Update(int frame_id, const Vector6d& T_w_c,
 
   const auto solve_start = std::chrono::steady_clock::now();
   state_ = cholesky_->Solve(info_vector_);  // eq. 10: I X = i
-  recovery_pending_ = false;  // the deferred frames were factored in too
+  recovery_pending_ = false;                // the deferred frames were factored in too
   timings_.solve_s = SecondsSince(solve_start);
   timings_.total_s = SecondsSince(start);
 }
 
-void InformationFilter::Register(const Linearization& lin, int frame_id, int old_dim,
-                                 int new_dim) {
+void InformationFilter::Register(const Linearization& lin, int frame_id, int old_dim, int new_dim) {
   for (int b = lin.num_known; b < static_cast<int>(lin.blocks.size()); ++b) {
     feature_offset_[lin.blocks[b].feature_id] = old_dim + 3 * (b - lin.num_known);
     feature_ids_.push_back(lin.blocks[b].feature_id);
@@ -360,8 +358,7 @@ void InformationFilter::Recover() {
                     ") make the information matrix not positive definite");
   }
   timings_.analyze_s = schur_ != nullptr ? 0.0 : cholesky_->timings().analyze_s;
-  timings_.factorize_s =
-      schur_ != nullptr ? SecondsSince(start) : cholesky_->timings().factorize_s;
+  timings_.factorize_s = schur_ != nullptr ? SecondsSince(start) : cholesky_->timings().factorize_s;
   const auto solve_start = std::chrono::steady_clock::now();
   if (schur_ != nullptr) {
     state_ = schur_->Solve(info_vector_);

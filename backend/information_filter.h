@@ -127,7 +127,7 @@ struct InformationFilterTimings {
   double factorize_s = 0.0;  // full factorisation, or the in-place update of the factor
   double solve_s = 0.0;      // recovery, I X = i
   double total_s = 0.0;
-  int cg_iterations = 0;     // of the recovery by conjugate gradients (0: by substitution)
+  int cg_iterations = 0;  // of the recovery by conjugate gradients (0: by substitution)
 };
 
 // Throws DataError naming the frame (frame_id < 0: a candidate) when a feature is observed

@@ -10,8 +10,8 @@
 #include <limits>
 #include <sstream>
 
-#include <Eigen/Cholesky>
 #include <glog/logging.h>
+#include <Eigen/Cholesky>
 
 #include "backend/information_filter.h"
 #include "core/error.h"
@@ -41,8 +41,7 @@ FeatureCovariance InformationFilter::JointFeatureCovariance(
     result.feature_ids.push_back(id);
     variables.push_back(VariableRef::Feature(id));
   }
-  result.covariance =
-      variables.empty() ? Eigen::MatrixXd(0, 0) : MarginalCovariance(variables);
+  result.covariance = variables.empty() ? Eigen::MatrixXd(0, 0) : MarginalCovariance(variables);
   return result;
 }
 
@@ -55,8 +54,7 @@ int InformationFilter::CountNewFeatures(const std::vector<FeatureObservation>& o
 double InformationFilter::InformationGain(const Vector6d& T_w_c_candidate,
                                           const std::vector<FeatureObservation>& observations,
                                           int num_new_features_to_count,
-                                          const FeatureCovariance& known,
-                                          GainTerms* terms) const {
+                                          const FeatureCovariance& known, GainTerms* terms) const {
   ValidateObservations(-1, observations);
   const int num_known = static_cast<int>(observations.size()) - CountNewFeatures(observations);
   // Per known feature s: G_s with A_s = J_f^T W J_f = G_s G_s^T, and Bt_s = G_s^-1 B_s,
@@ -74,8 +72,8 @@ double InformationFilter::InformationGain(const Vector6d& T_w_c_candidate,
     if (is_new && num_new_features_to_count >= 0 && num_counted >= num_new_features_to_count) {
       continue;
     }
-    const Eigen::Vector3d p_w = is_new ? ObservationToWorld(T_w_c_candidate, obs.z, camera_)
-                                       : feature(obs.feature_id);
+    const Eigen::Vector3d p_w =
+        is_new ? ObservationToWorld(T_w_c_candidate, obs.z, camera_) : feature(obs.feature_id);
     const double depth = WorldToCamera(T_w_c_candidate, p_w).z();
     if (!(depth > options_.min_depth_m)) {
       std::ostringstream msg;
@@ -100,8 +98,7 @@ double InformationFilter::InformationGain(const Vector6d& T_w_c_candidate,
     const Eigen::LLT<Eigen::Matrix3d> A_s(J_f.transpose() * W * J_f);
     CHECK(A_s.info() == Eigen::Success) << "a known feature's information is not positive definite";
     G.push_back(A_s.matrixL());
-    bordered.block<6, 3>(n, 3 * s) =
-        A_s.matrixL().solve(J_f.transpose() * W * J_p).transpose();
+    bordered.block<6, 3>(n, 3 * s) = A_s.matrixL().solve(J_f.transpose() * W * J_p).transpose();
     C += J_p.transpose() * W * J_p;
   }
   CHECK(num_new_features_to_count < 0 || num_counted == num_new_features_to_count)
@@ -124,8 +121,7 @@ double InformationFilter::InformationGain(const Vector6d& T_w_c_candidate,
   for (int s = 0; s < num_known; ++s) {
     for (int r = s; r < num_known; ++r) {
       bordered.block<3, 3>(3 * r, 3 * s).noalias() =
-          G[r].transpose() *
-          known.covariance.block<3, 3>(3 * in_known[r], 3 * in_known[s]) * G[s];
+          G[r].transpose() * known.covariance.block<3, 3>(3 * in_known[r], 3 * in_known[s]) * G[s];
     }
   }
   bordered.diagonal().head(n).array() += 1.0;

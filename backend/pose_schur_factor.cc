@@ -4,8 +4,8 @@
 #include <cmath>
 #include <utility>
 
-#include <Eigen/Cholesky>
 #include <glog/logging.h>
+#include <Eigen/Cholesky>
 
 namespace ieslam {
 
@@ -51,8 +51,8 @@ Matrix LeadingColumns(const Matrix& L, int first, int columns, const std::vector
 // scalar rows gathers coefficient by coefficient, ~3x slower.
 template <typename Scalar>
 Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic> GatherLower(const Eigen::MatrixXd& S,
-                                                                 const std::vector<int>& order,
-                                                                 int first) {
+                                                                  const std::vector<int>& order,
+                                                                  int first) {
   const int m = static_cast<int>(order.size()) - first;
   Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic> T(6 * m, 6 * m);
   for (int b = 0; b < m; ++b) {
@@ -622,8 +622,8 @@ Eigen::MatrixXd PoseSchurFactor::InverseSubmatrix(const std::vector<int>& indice
   for (int a = 0; a < k; ++a) {
     for (int b = 0; b < k; ++b) {
       if (feature_of[a].first >= 0 && feature_of[a].first == feature_of[b].first) {
-        result(a, b) += features_[feature_of[a].first].F_inv(feature_of[a].second,
-                                                             feature_of[b].second);
+        result(a, b) +=
+            features_[feature_of[a].first].F_inv(feature_of[a].second, feature_of[b].second);
       }
     }
   }

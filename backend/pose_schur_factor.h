@@ -180,9 +180,9 @@ class PoseSchurFactor {
     Eigen::Matrix3d F_synced = Eigen::Matrix3d::Zero();
     Eigen::Matrix3d F_inv_synced = Eigen::Matrix3d::Zero();
     int poses_synced = 0;
-    bool unsynced = false;  // listed in unsynced_
-    std::vector<int> poses;                                  // pose indices
-    std::vector<Matrix63> couplings;                         // I_pf per pose
+    bool unsynced = false;            // listed in unsynced_
+    std::vector<int> poses;           // pose indices
+    std::vector<Matrix63> couplings;  // I_pf per pose
   };
   // A new order of the factor's positions: from `first` on it changes.
   struct Plan {
@@ -243,29 +243,29 @@ class PoseSchurFactor {
   double CgIterationFlops() const;
 
   PoseSchurOptions options_;
-  std::vector<int> pose_offsets_;               // pose index -> state offset
+  std::vector<int> pose_offsets_;                         // pose index -> state offset
   std::vector<Eigen::Matrix<double, 6, 6>> pose_blocks_;  // pose index -> its I_pp
   std::unordered_map<int, int> pose_of_offset_;
   std::vector<Feature> features_;
   std::unordered_map<int, int> feature_of_offset_;
-  int64_t num_couplings_ = 0;                   // pose-feature blocks in all
+  int64_t num_couplings_ = 0;  // pose-feature blocks in all
   // The couplings again, pose by pose (pose index order, each pose's in feature order, so
   // that sums over them run in the same order as feature by feature): the passes over all
   // of them (CG's products with S, the right-hand side, the features' recovery) stream
   // them from one array instead of hopping between the features' own.
   std::vector<Matrix63, Eigen::aligned_allocator<Matrix63>> pose_couplings_;
-  std::vector<int> pose_coupling_features_;     // feature index of each
-  std::vector<int> pose_coupling_ends_;         // pose index -> end of its couplings
-  std::vector<int> last_touched_;               // pose index -> update count
+  std::vector<int> pose_coupling_features_;  // feature index of each
+  std::vector<int> pose_coupling_ends_;      // pose index -> end of its couplings
+  std::vector<int> last_touched_;            // pose index -> update count
   int updates_ = 0;
   // Pose index order, with room to grow; only the 6x6 blocks on and below the diagonal are
   // kept (Sync writes no others).
   Eigen::MatrixXd S_;
-  Eigen::MatrixXd L_;      // order_ (positions), lower triangle
-  Eigen::MatrixXd C_;      // trailing Schur complement of the window (window positions)
-  Eigen::MatrixXf L_single_;  // float L: CG's preconditioner (allocated on first use)
-  int double_columns_ = 0;    // L_'s leading columns (in poses) that are exact
-  int single_rows_ = 0;       // L_single_'s leading rows (in poses) that are up to date
+  Eigen::MatrixXd L_;          // order_ (positions), lower triangle
+  Eigen::MatrixXd C_;          // trailing Schur complement of the window (window positions)
+  Eigen::MatrixXf L_single_;   // float L: CG's preconditioner (allocated on first use)
+  int double_columns_ = 0;     // L_'s leading columns (in poses) that are exact
+  int single_rows_ = 0;        // L_single_'s leading rows (in poses) that are up to date
   std::vector<int> order_;     // position (pose slot) -> pose index
   std::vector<int> position_;  // pose index -> position
   int window_start_ = 0;       // first window position (in poses)

@@ -4,8 +4,8 @@
 #include <algorithm>
 #include <utility>
 
-#include <Eigen/Cholesky>
 #include <glog/logging.h>
+#include <Eigen/Cholesky>
 
 #include "backend/pose_schur_factor.h"
 
@@ -77,7 +77,8 @@ void PoseSchurFactor::Sync() {
   Grow(6 * k);
   if (k > synced) {
     S_.block(6 * synced, 0, 6 * (k - synced), 6 * k).setZero();
-    for (int pose = synced; pose < k; ++pose) S_.block<6, 6>(6 * pose, 6 * pose) = pose_blocks_[pose];
+    for (int pose = synced; pose < k; ++pose)
+      S_.block<6, 6>(6 * pose, 6 * pose) = pose_blocks_[pose];
   }
   // Pairs of poses that S has seen: F_synced^-1 - F^-1; pairs with a new pose: -F^-1.
   const int count = static_cast<int>(unsynced_.size());

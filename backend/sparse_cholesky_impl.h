@@ -6,9 +6,9 @@
 #include <memory>
 #include <vector>
 
-#include <Eigen/Core>
 #include <cholmod.h>
 #include <glog/logging.h>
+#include <Eigen/Core>
 
 #include "backend/sparse_information.h"
 
@@ -59,8 +59,8 @@ struct SparseCholesky::Impl {
   bool numeric_ok = false;
   FillReducingOrdering ordering;
   double spare_capacity = 0.0;
-  int used = 0;                // variables in use; the factor's others are identity slots
-  std::vector<int> position;   // variable -> its row in the factor (the inverse of Perm)
+  int used = 0;               // variables in use; the factor's others are identity slots
+  std::vector<int> position;  // variable -> its row in the factor (the inverse of Perm)
   // Share of the re-observed blocks among the kExploringWindow most recent variables, in
   // the last update (1 before any).
   double touched_recent = 1.0;

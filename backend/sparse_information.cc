@@ -6,10 +6,10 @@
 #include <cmath>
 #include <vector>
 
-#include <Eigen/Cholesky>
-#include <Eigen/Eigenvalues>
 #include <cholmod.h>
 #include <glog/logging.h>
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
 
 #include "backend/sparse_cholesky_impl.h"
 #include "core/stopwatch.h"
@@ -53,7 +53,7 @@ void UpperColumnStorage::Truncate(int dim) {
 
 Eigen::Map<const Eigen::SparseMatrix<double>> UpperColumnStorage::Upper() const {
   return Eigen::Map<const Eigen::SparseMatrix<double>>(dim(), dim(), nonzeros(), outer_.data(),
-                                                      inner_.data(), values_.data());
+                                                       inner_.data(), values_.data());
 }
 
 Eigen::SparseMatrix<double> UpperColumnStorage::Full() const {
@@ -68,8 +68,7 @@ Eigen::Matrix3d SymmetricSquareRoot(const Eigen::Matrix3d& M) {
   const Eigen::LLT<Eigen::Matrix3d> llt(M);
   if (llt.info() == Eigen::Success) return llt.matrixL();
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(M);
-  return eigen.eigenvectors() *
-         eigen.eigenvalues().cwiseMax(0.0).cwiseSqrt().asDiagonal();
+  return eigen.eigenvectors() * eigen.eigenvalues().cwiseMax(0.0).cwiseSqrt().asDiagonal();
 }
 
 }  // namespace

@@ -11,9 +11,9 @@
 #include <cmath>
 #include <vector>
 
-#include <Eigen/Core>
 #include <cholmod.h>
 #include <glog/logging.h>
+#include <Eigen/Core>
 
 #include "backend/sparse_cholesky_impl.h"
 #include "backend/sparse_information.h"
@@ -84,9 +84,8 @@ Eigen::MatrixXd SparseCholesky::InverseSubmatrix(const std::vector<int>& indices
   // Wanted columns sorted by factor position, so that a chunk holds nearby variables.
   std::vector<int> column_order(k);
   for (int c = 0; c < k; ++c) column_order[c] = c;
-  std::sort(column_order.begin(), column_order.end(), [&](int a, int b) {
-    return position[indices[a]] < position[indices[b]];
-  });
+  std::sort(column_order.begin(), column_order.end(),
+            [&](int a, int b) { return position[indices[a]] < position[indices[b]]; });
   std::vector<int> parent(n, -2);  // -2: not looked up yet
   std::vector<int> row_of(n, -1);  // factor row -> row of the chunk's compact Y
   std::vector<int> all_of(n, -1);  // factor row -> row of the whole compact Y

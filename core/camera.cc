@@ -12,8 +12,8 @@ bool Fail(std::string* why, const std::string& message) {
 }
 
 bool Finite(const PinholeCamera& c) {
-  bool finite = std::isfinite(c.fx) && std::isfinite(c.fy) && std::isfinite(c.cx) &&
-                std::isfinite(c.cy);
+  bool finite =
+      std::isfinite(c.fx) && std::isfinite(c.fy) && std::isfinite(c.cx) && std::isfinite(c.cy);
   for (double d : c.distortion) finite = finite && std::isfinite(d);
   return finite;
 }

@@ -57,12 +57,12 @@ struct RangeNoiseModel {
 enum class DepthKind { kZ, kRadial };
 
 struct RangeImager {
-  PinholeCamera camera;              // intrinsics and resolution of the range image
-  double depth_scale = 0.001;        // metres per raw 16-bit unit
+  PinholeCamera camera;        // intrinsics and resolution of the range image
+  double depth_scale = 0.001;  // metres per raw 16-bit unit
   DepthKind depth_kind = DepthKind::kZ;
   std::vector<int> invalid_values{0};  // raw values that mean "no measurement"
   double min_range_m = 0.1;
-  double max_range_m = 10.0;         // the non-ambiguity range for time-of-flight
+  double max_range_m = 10.0;  // the non-ambiguity range for time-of-flight
   RangeNoiseModel noise;
 
   bool Check(std::string* why) const;

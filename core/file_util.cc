@@ -10,8 +10,8 @@
 
 namespace ieslam {
 
-void WriteFileAtomically(const std::string& path,
-                         const std::function<void(std::ostream&)>& write, bool binary) {
+void WriteFileAtomically(const std::string& path, const std::function<void(std::ostream&)>& write,
+                         bool binary) {
   // The pid keeps concurrent writers of the same path (two runs) from sharing a temp file.
   const std::string temp = path + ".tmp." + std::to_string(::getpid());
   {

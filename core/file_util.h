@@ -10,8 +10,7 @@ namespace ieslam {
 // Writes a file so that readers never see it half-written: the content goes to a
 // temporary file in the same directory, which is then renamed over `path`.
 // Throws DataError naming the path when the directory cannot be written.
-void WriteFileAtomically(const std::string& path,
-                         const std::function<void(std::ostream&)>& write,
+void WriteFileAtomically(const std::string& path, const std::function<void(std::ostream&)>& write,
                          bool binary = false);
 void WriteTextAtomically(const std::string& path, const std::string& content);
 

@@ -45,11 +45,21 @@ std::string JsonQuote(const std::string& s) {
   std::string out = "\"";
   for (const char c : s) {
     switch (c) {
-      case '"': out += "\\\""; break;
-      case '\\': out += "\\\\"; break;
-      case '\n': out += "\\n"; break;
-      case '\r': out += "\\r"; break;
-      case '\t': out += "\\t"; break;
+      case '"':
+        out += "\\\"";
+        break;
+      case '\\':
+        out += "\\\\";
+        break;
+      case '\n':
+        out += "\\n";
+        break;
+      case '\r':
+        out += "\\r";
+        break;
+      case '\t':
+        out += "\\t";
+        break;
       default:
         if (static_cast<unsigned char>(c) < 0x20) {
           char buffer[8];
@@ -74,9 +84,15 @@ void Json::DumpTo(std::string* out, int indent, int depth) const {
     if (indent > 0) *out += "\n" + std::string(static_cast<size_t>(indent * d), ' ');
   };
   switch (kind_) {
-    case Kind::kNull: *out += "null"; return;
-    case Kind::kBool: *out += bool_ ? "true" : "false"; return;
-    case Kind::kInt: *out += std::to_string(int_); return;
+    case Kind::kNull:
+      *out += "null";
+      return;
+    case Kind::kBool:
+      *out += bool_ ? "true" : "false";
+      return;
+    case Kind::kInt:
+      *out += std::to_string(int_);
+      return;
     case Kind::kDouble: {
       if (!std::isfinite(double_)) {
         *out += "null";
@@ -91,7 +107,9 @@ void Json::DumpTo(std::string* out, int indent, int depth) const {
       if (number.find_first_of(".e") == std::string::npos) *out += ".0";
       return;
     }
-    case Kind::kString: *out += JsonQuote(string_); return;
+    case Kind::kString:
+      *out += JsonQuote(string_);
+      return;
     case Kind::kObject: {
       if (members_.empty()) {
         *out += "{}";
@@ -114,7 +132,8 @@ void Json::DumpTo(std::string* out, int indent, int depth) const {
         return;
       }
       // Arrays of scalars stay on one line; arrays of objects get a line per item.
-      const bool nested = items_.front().kind_ == Kind::kObject || items_.front().kind_ == Kind::kArray;
+      const bool nested =
+          items_.front().kind_ == Kind::kObject || items_.front().kind_ == Kind::kArray;
       *out += "[";
       for (size_t i = 0; i < items_.size(); ++i) {
         if (i > 0) *out += nested || indent == 0 ? "," : ", ";

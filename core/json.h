@@ -16,12 +16,12 @@ namespace ieslam {
 class Json {
  public:
   Json() : kind_(Kind::kNull) {}
-  Json(std::nullptr_t) : kind_(Kind::kNull) {}  // NOLINT(google-explicit-constructor)
-  Json(bool b) : kind_(Kind::kBool), bool_(b) {}  // NOLINT(google-explicit-constructor)
-  Json(int i) : kind_(Kind::kInt), int_(i) {}     // NOLINT(google-explicit-constructor)
+  Json(std::nullptr_t) : kind_(Kind::kNull) {}     // NOLINT(google-explicit-constructor)
+  Json(bool b) : kind_(Kind::kBool), bool_(b) {}   // NOLINT(google-explicit-constructor)
+  Json(int i) : kind_(Kind::kInt), int_(i) {}      // NOLINT(google-explicit-constructor)
   Json(int64_t i) : kind_(Kind::kInt), int_(i) {}  // NOLINT(google-explicit-constructor)
   Json(size_t i) : kind_(Kind::kInt), int_(static_cast<int64_t>(i)) {}  // NOLINT
-  Json(double d) : kind_(Kind::kDouble), double_(d) {}  // NOLINT(google-explicit-constructor)
+  Json(double d) : kind_(Kind::kDouble), double_(d) {}       // NOLINT(google-explicit-constructor)
   Json(const char* s) : kind_(Kind::kString), string_(s) {}  // NOLINT
   Json(std::string s) : kind_(Kind::kString), string_(std::move(s)) {}  // NOLINT
 

@@ -13,7 +13,8 @@ Eigen::Vector3d WorldToCamera(const Vector6d& T_w_c, const Eigen::Vector3d& p_w)
   return EulerZyxToRotation(T_w_c.tail<3>()).transpose() * (p_w - T_w_c.head<3>());
 }
 
-std::array<Eigen::Matrix3d, 3> EulerZyxRotationDerivatives(const Eigen::Vector3d& alpha_beta_gamma) {
+std::array<Eigen::Matrix3d, 3> EulerZyxRotationDerivatives(
+    const Eigen::Vector3d& alpha_beta_gamma) {
   const Eigen::Matrix3d Rz =
       Eigen::AngleAxisd(alpha_beta_gamma[0], Eigen::Vector3d::UnitZ()).toRotationMatrix();
   const Eigen::Matrix3d Ry =
@@ -26,7 +27,8 @@ std::array<Eigen::Matrix3d, 3> EulerZyxRotationDerivatives(const Eigen::Vector3d
     W << 0.0, -w.z(), w.y(), w.z(), 0.0, -w.x(), -w.y(), w.x(), 0.0;
     return W;
   };
-  return {hat(Eigen::Vector3d::UnitZ()) * Rz * Ry * Rx, Rz * hat(Eigen::Vector3d::UnitY()) * Ry * Rx,
+  return {hat(Eigen::Vector3d::UnitZ()) * Rz * Ry * Rx,
+          Rz * hat(Eigen::Vector3d::UnitY()) * Ry * Rx,
           Rz * Ry * hat(Eigen::Vector3d::UnitX()) * Rx};
 }
 

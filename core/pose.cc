@@ -22,8 +22,7 @@ Eigen::Vector3d RotationToEulerZyx(const Eigen::Matrix3d& R) {
   const double cos_beta = std::hypot(R(0, 0), R(1, 0));
   const double beta = std::atan2(-R(2, 0), cos_beta);
   if (cos_beta > kGimbalLockCosBeta) {
-    return {WrapAngle(std::atan2(R(1, 0), R(0, 0))), beta,
-            WrapAngle(std::atan2(R(2, 1), R(2, 2)))};
+    return {WrapAngle(std::atan2(R(1, 0), R(0, 0))), beta, WrapAngle(std::atan2(R(2, 1), R(2, 2)))};
   }
   // Gimbal lock: with gamma = 0, R(0,1) = -sin a and R(1,1) = cos a for either sign of beta.
   return {WrapAngle(std::atan2(-R(0, 1), R(1, 1))), beta, 0.0};

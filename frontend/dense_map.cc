@@ -56,7 +56,7 @@ void DenseMap::AddFrame(const Frame& frame, const Rig& rig, const Eigen::Isometr
       const Eigen::Vector2d pixel = rig.colour.Project(p_colour);
       if (!rig.colour.InImage(pixel)) continue;
       const cv::Vec3b bgr = frame.colour.at<cv::Vec3b>(static_cast<int>(std::lround(pixel.y())),
-                                                        static_cast<int>(std::lround(pixel.x())));
+                                                       static_cast<int>(std::lround(pixel.x())));
       const Eigen::Vector3d p_w = T_w_range * p_range;
       Voxel& voxel = voxels_[VoxelKey(p_w, options_.voxel_size_m)];
       voxel.sum += p_w;
@@ -85,7 +85,8 @@ void DenseMap::WritePly(const std::string& path) const {
           const Eigen::Vector3d c = v.colour_sum / v.count;
           std::memcpy(record, p.data(), 12);  // x86-64 and ARM64 are little-endian
           for (int i = 0; i < 3; ++i) {
-            record[12 + i] = static_cast<char>(static_cast<uint8_t>(std::lround(std::clamp(c[i], 0.0, 255.0))));
+            record[12 + i] =
+                static_cast<char>(static_cast<uint8_t>(std::lround(std::clamp(c[i], 0.0, 255.0))));
           }
           out.write(record, sizeof(record));
         }

@@ -4,8 +4,8 @@
 #include <numeric>
 #include <tuple>
 
-#include <opencv2/features2d.hpp>
 #include <glog/logging.h>
+#include <opencv2/features2d.hpp>
 #include <opencv2/imgproc.hpp>
 
 namespace ieslam {
@@ -21,7 +21,8 @@ bool FeatureOptions::Check(std::string* why) const {
                 std::to_string(contrast_threshold));
   }
   if (!(edge_threshold > 1.0)) return fail("features.edge_threshold must be > 1");
-  if (octave_layers < 1 || octave_layers > 8) return fail("features.octave_layers must be in [1, 8]");
+  if (octave_layers < 1 || octave_layers > 8)
+    return fail("features.octave_layers must be in [1, 8]");
   if (!(sigma > 0.0)) return fail("features.sigma must be > 0");
   if (!(image_scale > 0.1 && image_scale <= 1.0)) {
     return fail("features.image_scale must be in (0.1, 1], got " + std::to_string(image_scale));

@@ -55,8 +55,8 @@ void FramePrefetcher::WorkerLoop() {
   std::unique_lock<std::mutex> lock(mutex_);
   while (true) {
     work_cv_.wait(lock, [this] {
-      return stop_ || (next_ < dataset_.size() &&
-                       static_cast<int>(slots_.size()) < options_.capacity);
+      return stop_ ||
+             (next_ < dataset_.size() && static_cast<int>(slots_.size()) < options_.capacity);
     });
     if (stop_) return;
     const int frame = next_++;

@@ -26,7 +26,7 @@ struct FrontendOptions {
 
 struct ProcessedFrame {
   FrameInfo info;
-  FrameFeatures features;          // lifted keypoints only; row i <-> points[i]
+  FrameFeatures features;           // lifted keypoints only; row i <-> points[i]
   std::vector<LiftedPoint> points;  // all valid
   int keypoints_detected = 0;
   double seconds_extract = 0.0;

@@ -17,8 +17,10 @@ bool LiftingOptions::Check(std::string* why) const {
     if (why != nullptr) *why = message;
     return false;
   };
-  if (window_radius < 0 || window_radius > 5) return fail("lifting.window_radius must be in [0, 5]");
-  if (!(sigma_multiplier > 0.0) || !(footprint_multiplier >= 0.0) || !(edge_sigma_multiplier > 0.0)) {
+  if (window_radius < 0 || window_radius > 5)
+    return fail("lifting.window_radius must be in [0, 5]");
+  if (!(sigma_multiplier > 0.0) || !(footprint_multiplier >= 0.0) ||
+      !(edge_sigma_multiplier > 0.0)) {
     return fail("lifting multipliers must be positive");
   }
   const int window = (2 * window_radius + 1) * (2 * window_radius + 1);
@@ -43,7 +45,8 @@ std::vector<LiftedPoint> FeatureLifter::Lift(const std::vector<Eigen::Vector2d>&
   std::vector<LiftedPoint> lifted;
   lifted.reserve(pixels.size());
   for (const Eigen::Vector2d& pixel : pixels) {
-    lifted.push_back(rig_.registered ? LiftRegistered(pixel, depth) : LiftThroughCloud(pixel, depth));
+    lifted.push_back(rig_.registered ? LiftRegistered(pixel, depth)
+                                     : LiftThroughCloud(pixel, depth));
   }
   return lifted;
 }
@@ -68,7 +71,8 @@ double FeatureLifter::EdgeAllowance(double range_m, double lateral_m) const {
          lateral_m * std::tan(60.0 * M_PI / 180.0);
 }
 
-LiftedPoint FeatureLifter::LiftRegistered(const Eigen::Vector2d& pixel, const cv::Mat& depth) const {
+LiftedPoint FeatureLifter::LiftRegistered(const Eigen::Vector2d& pixel,
+                                          const cv::Mat& depth) const {
   const int x0 = static_cast<int>(std::lround(pixel.x()));
   const int y0 = static_cast<int>(std::lround(pixel.y()));
   const int r = options_.window_radius;
@@ -133,7 +137,8 @@ LiftedPoint FeatureLifter::LiftThroughCloud(const Eigen::Vector2d& pixel,
   int last_x = std::numeric_limits<int>::min(), last_y = last_x;
   std::vector<std::pair<double, double>> visited;  // (distance to the ray, position along it)
   for (int i = 0; i < steps; ++i) {
-    const Eigen::Vector2d p = steps == 1 ? a : Eigen::Vector2d(a + (b - a) * (double(i) / (steps - 1)));
+    const Eigen::Vector2d p =
+        steps == 1 ? a : Eigen::Vector2d(a + (b - a) * (double(i) / (steps - 1)));
     const int cx = static_cast<int>(std::lround(p.x())), cy = static_cast<int>(std::lround(p.y()));
     if (cx == last_x && cy == last_y) continue;
     last_x = cx;

@@ -3,8 +3,8 @@
 #include <algorithm>
 #include <limits>
 
-#include <Eigen/Core>
 #include <glog/logging.h>
+#include <Eigen/Core>
 #include <opencv2/flann.hpp>
 
 namespace ieslam {
@@ -89,9 +89,9 @@ std::vector<DescriptorMatch> MatchDescriptors(const cv::Mat& query, const cv::Ma
 // 4 trees ranked in 48 ms and added a frame in 13 ms, 1/16 with 1 tree in 16 and 7 ms,
 // with the same ATE on 250 7-Scenes frames (1.7 cm).
 struct BaseFrameDatabase::Index {
-  cv::Mat storage;   // capacity for rows
-  cv::Mat rows;      // every base frame's descriptors, in the order added (in storage)
-  int indexed = 0;   // rows [0, indexed) are in `flann`
+  cv::Mat storage;  // capacity for rows
+  cv::Mat rows;     // every base frame's descriptors, in the order added (in storage)
+  int indexed = 0;  // rows [0, indexed) are in `flann`
   std::unique_ptr<cv::flann::Index> flann;
 };
 
@@ -125,8 +125,8 @@ void BaseFrameDatabase::Add(int frame_id, const cv::Mat& descriptors) {
   const int tail = index_->rows.rows - index_->indexed;
   if (tail <= std::max(kMinTailRows, index_->indexed / kTailFraction)) return;
   cvflann::seed_random(options_.seed);
-  index_->flann.reset(new cv::flann::Index(index_->rows, cv::flann::KDTreeIndexParams(options_.trees),
-                                           cvflann::FLANN_DIST_L2));
+  index_->flann.reset(new cv::flann::Index(
+      index_->rows, cv::flann::KDTreeIndexParams(options_.trees), cvflann::FLANN_DIST_L2));
   index_->indexed = index_->rows.rows;
 }
 

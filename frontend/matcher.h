@@ -35,11 +35,11 @@ std::vector<DescriptorMatch> MatchDescriptors(const cv::Mat& query, const cv::Ma
                                               const MatchOptions& options);
 
 struct DatabaseOptions {
-  int trees = 1;         // randomised kd-trees (each costs a build; see matcher.cc)
-  int checks = 64;       // leaves visited per query
-  int neighbours = 6;    // k nearest descriptors looked at per query descriptor
-  double ratio = 0.8;    // a neighbour votes when closer than ratio x the k-th distance
-  unsigned seed = 1;     // FLANN's tree randomisation
+  int trees = 1;       // randomised kd-trees (each costs a build; see matcher.cc)
+  int checks = 64;     // leaves visited per query
+  int neighbours = 6;  // k nearest descriptors looked at per query descriptor
+  double ratio = 0.8;  // a neighbour votes when closer than ratio x the k-th distance
+  unsigned seed = 1;   // FLANN's tree randomisation
 
   bool Check(std::string* why) const;
 };
@@ -70,8 +70,8 @@ class BaseFrameDatabase {
   static constexpr int kTailFraction = 16;
   DatabaseOptions options_;
   std::unique_ptr<Index> index_;
-  std::vector<int> frame_ids_;        // per added frame
-  std::vector<int> row_frame_;        // per database row: position in frame_ids_
+  std::vector<int> frame_ids_;  // per added frame
+  std::vector<int> row_frame_;  // per database row: position in frame_ids_
 };
 
 }  // namespace ieslam

@@ -3,12 +3,12 @@
 #include <functional>
 #include <memory>
 
-#include <Eigen/Cholesky>
-#include <Eigen/Eigenvalues>
 #include <ceres/rotation.h>
 #include <ceres/tiny_solver.h>
 #include <ceres/tiny_solver_autodiff_function.h>
 #include <glog/logging.h>
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
 #include <opengv/point_cloud/PointCloudAdapter.hpp>
 #include <opengv/point_cloud/methods.hpp>
 #include <opengv/sac/Ransac.hpp>
@@ -161,7 +161,8 @@ double Spread(const std::vector<Eigen::Vector3d>& points, const std::vector<int>
   Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
   for (int i : selected) scatter += (points[i] - mean) * (points[i] - mean).transpose();
   scatter /= selected.size();
-  const Eigen::Vector3d eigenvalues = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(scatter).eigenvalues();
+  const Eigen::Vector3d eigenvalues =
+      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(scatter).eigenvalues();
   return std::sqrt(std::max(0.0, eigenvalues[1]));  // ascending order
 }
 
@@ -252,7 +253,8 @@ bool RegistrationOptions::Check(std::string* why) const {
   if (!(inlier_threshold_m > 0.0)) return fail("registration.inlier_threshold_m must be > 0");
   if (!(inlier_noise_sigmas >= 0.0)) return fail("registration.inlier_noise_sigmas must be >= 0");
   if (max_iterations < 1) return fail("registration.max_iterations must be >= 1");
-  if (!(probability > 0.0 && probability < 1.0)) return fail("registration.probability must be in (0, 1)");
+  if (!(probability > 0.0 && probability < 1.0))
+    return fail("registration.probability must be in (0, 1)");
   if (min_inliers < 3) return fail("registration.min_inliers must be >= 3");
   if (!(min_spread_m >= 0.0)) return fail("registration.min_spread_m must be >= 0");
   if (max_refinements < 0) return fail("registration.max_refinements must be >= 0");

@@ -54,11 +54,11 @@ struct RegistrationOptions {
 
 struct RegistrationResult {
   bool success = false;
-  std::string reason;                                  // why not, when !success
+  std::string reason;                                       // why not, when !success
   Eigen::Isometry3d T_a_b = Eigen::Isometry3d::Identity();  // p_a = T_a_b * p_b
-  std::vector<int> inliers;                            // indices into the correspondences
+  std::vector<int> inliers;                                 // indices into the correspondences
   double inlier_ratio = 0.0;
-  double rms_m = 0.0;                                  // residual RMS over the inliers
+  double rms_m = 0.0;      // residual RMS over the inliers
   double mean_chi2 = 0.0;  // mean r^T S^-1 r over the inliers (with covariances; ~3 if consistent)
   int ransac_iterations = 0;
 };

@@ -120,8 +120,8 @@ FrameRegistration RgbdFrameSource::Register(int base, int frame) {
   if (cached != registrations_.end()) return cached->second;
   const ProcessedFrame& a = Processed(base);
   const ProcessedFrame& b = Processed(frame);
-  FrameRegistration registration = RegisterFrames(a, b, options_.frontend.matching,
-                                                  options_.frontend.registration);
+  FrameRegistration registration =
+      RegisterFrames(a, b, options_.frontend.matching, options_.frontend.registration);
   timings_.match_s += registration.seconds_match;
   timings_.ransac_s += registration.seconds_ransac;
   registrations_.emplace(std::make_pair(base, frame), registration);
@@ -207,7 +207,8 @@ CandidateFrame RgbdFrameSource::Build(int frame, const std::vector<int>& bases) 
   std::vector<int64_t> used;
   for (size_t r = 0; r < registered.size(); ++r) {
     const auto& [base, registration] = registered[r];
-    if (r > 0 && static_cast<int>(registration.result.inliers.size()) < options_.min_inliers_secondary) {
+    if (r > 0 &&
+        static_cast<int>(registration.result.inliers.size()) < options_.min_inliers_secondary) {
       continue;
     }
     const std::vector<int64_t>& base_ids = feature_ids_.at(base);

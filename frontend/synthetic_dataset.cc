@@ -194,8 +194,8 @@ int WriteSyntheticDataset(const std::string& directory, const SyntheticDatasetOp
   if (!options.Check(&why)) throw ConfigError("synthetic dataset options: " + why);
   const SyntheticScene scene(options.scene);
   const Rig rig = SyntheticRig(options.sensor, options.resolution_scale);
-  const std::vector<Eigen::Isometry3d> poses =
-      BuildSyntheticTrajectory(options.trajectory, std::max(options.frames, options.frames_per_loop));
+  const std::vector<Eigen::Isometry3d> poses = BuildSyntheticTrajectory(
+      options.trajectory, std::max(options.frames, options.frames_per_loop));
   for (int i = 0; i < options.frames; ++i) {
     const Eigen::Vector3d p = poses[i].translation();
     const Eigen::Vector3d p_range = (poses[i] * rig.T_colour_range).translation();
@@ -306,10 +306,9 @@ std::string FormatSyntheticOptions(const SyntheticDatasetOptions& o) {
   s.precision(17);
   const SyntheticTrajectoryOptions& t = o.trajectory;
   s << "sensor: " << ToString(o.sensor) << "\nframes: " << o.frames
-    << "\nframes_per_loop: " << o.frames_per_loop
-    << "\nframe_rate_hz: " << o.frame_rate_hz << "\nstart_time_s: " << o.start_time_s
-    << "\nresolution_scale: " << o.resolution_scale << "\nadd_noise: " << o.add_noise
-    << "\ncolour_noise_sigma: " << o.colour_noise_sigma
+    << "\nframes_per_loop: " << o.frames_per_loop << "\nframe_rate_hz: " << o.frame_rate_hz
+    << "\nstart_time_s: " << o.start_time_s << "\nresolution_scale: " << o.resolution_scale
+    << "\nadd_noise: " << o.add_noise << "\ncolour_noise_sigma: " << o.colour_noise_sigma
     << "\nmax_incidence_deg: " << o.max_incidence_deg
     << "\nedge_supersampling: " << o.edge_supersampling << "\nnoise_seed: " << o.noise_seed
     << "\nscene.seed: " << o.scene.seed << "\nscene.room_size_m: ["

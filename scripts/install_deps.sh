@@ -4,7 +4,7 @@
 set -euo pipefail
 
 packages=(
-  cmake g++ make pkg-config
+  cmake g++ make pkg-config clang-format
   libceres-dev libeigen3-dev libopencv-dev libopengv-dev libflann-dev libsuitesparse-dev
   libgtest-dev libbenchmark-dev
   python3-matplotlib

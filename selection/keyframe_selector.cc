@@ -19,7 +19,8 @@ using Clock = std::chrono::steady_clock;
 
 // The larger of the rotation angle of `T` and its parallax angle atan(|t| / median range of
 // the observations), in degrees.
-double ViewChangeDeg(const Eigen::Isometry3d& T, const std::vector<FeatureObservation>& observations) {
+double ViewChangeDeg(const Eigen::Isometry3d& T,
+                     const std::vector<FeatureObservation>& observations) {
   const double rotation = Eigen::AngleAxisd(T.linear()).angle();
   std::vector<double> ranges;
   for (const FeatureObservation& obs : observations) ranges.push_back(obs.z(2));
@@ -236,8 +237,8 @@ class Run {
       }
       SelectionDecision decision;
       Score(buffer, &decision);
-      const auto best = std::max_element(decision.gains.begin(), decision.gains.end()) -
-                        decision.gains.begin();
+      const auto best =
+          std::max_element(decision.gains.begin(), decision.gains.end()) - decision.gains.begin();
       const double map_gain = decision.map_gains[best];
       if (!std::isfinite(decision.gains[best])) {
         decision.reason = "unscorable";
@@ -294,7 +295,8 @@ class Run {
   }
 
   void Progress(int done) {
-    if (progress_) progress_(std::min(done, source_->size()), static_cast<int>(result_->selected.size()));
+    if (progress_)
+      progress_(std::min(done, source_->size()), static_cast<int>(result_->selected.size()));
   }
 
   // True (and the result marked interrupted) when the caller asked to stop.
@@ -320,20 +322,29 @@ class Run {
 }  // namespace
 
 bool ParseSelectorKind(const std::string& name, SelectorKind* kind) {
-  if (name == "info") *kind = SelectorKind::kInfo;
-  else if (name == "all") *kind = SelectorKind::kAll;
-  else if (name == "interval") *kind = SelectorKind::kInterval;
-  else if (name == "deadreckoning") *kind = SelectorKind::kDeadReckoning;
-  else return false;
+  if (name == "info")
+    *kind = SelectorKind::kInfo;
+  else if (name == "all")
+    *kind = SelectorKind::kAll;
+  else if (name == "interval")
+    *kind = SelectorKind::kInterval;
+  else if (name == "deadreckoning")
+    *kind = SelectorKind::kDeadReckoning;
+  else
+    return false;
   return true;
 }
 
 std::string SelectorKindName(SelectorKind kind) {
   switch (kind) {
-    case SelectorKind::kInfo: return "info";
-    case SelectorKind::kAll: return "all";
-    case SelectorKind::kInterval: return "interval";
-    case SelectorKind::kDeadReckoning: return "deadreckoning";
+    case SelectorKind::kInfo:
+      return "info";
+    case SelectorKind::kAll:
+      return "all";
+    case SelectorKind::kInterval:
+      return "interval";
+    case SelectorKind::kDeadReckoning:
+      return "deadreckoning";
   }
   return "?";
 }
@@ -351,7 +362,8 @@ bool SelectorOptions::Check(std::string* why) const {
   if (!std::isfinite(map_gain_threshold)) return fail("map_gain_threshold must be finite");
   if (max_recovery_frames < 0) return fail("max_recovery_frames must be >= 0");
   if (!(min_view_change_deg >= 0.0) || !(min_view_change_deg < 90.0)) {
-    return fail("min_view_change_deg must be in [0, 90), got " + std::to_string(min_view_change_deg));
+    return fail("min_view_change_deg must be in [0, 90), got " +
+                std::to_string(min_view_change_deg));
   }
   return true;
 }
@@ -361,10 +373,10 @@ KeyframeSelector::KeyframeSelector(const SelectorOptions& options) : options_(op
   if (!options.Check(&why)) throw ConfigError(why);
 }
 
-SelectionResult KeyframeSelector::Run(FrameSource* source, InformationFilter* filter,
-                                      const std::function<void(int, int)>& progress,
-                                      const std::function<bool()>& stop,
-                                      const std::function<void(const SelectionDecision&)>& on_decision) const {
+SelectionResult KeyframeSelector::Run(
+    FrameSource* source, InformationFilter* filter, const std::function<void(int, int)>& progress,
+    const std::function<bool()>& stop,
+    const std::function<void(const SelectionDecision&)>& on_decision) const {
   SelectionResult result;
   const int n = source->size();
   result.frames_processed = n;
@@ -417,10 +429,17 @@ SelectionResult KeyframeSelector::Run(FrameSource* source, InformationFilter* fi
   run.on_decision_ = on_decision;
   run.AddFirst(0);
   switch (options_.kind) {
-    case SelectorKind::kInfo: run.RunInfo(); break;
-    case SelectorKind::kAll: run.RunEvery(1); break;
-    case SelectorKind::kInterval: run.RunEvery(options_.interval); break;
-    case SelectorKind::kDeadReckoning: break;
+    case SelectorKind::kInfo:
+      run.RunInfo();
+      break;
+    case SelectorKind::kAll:
+      run.RunEvery(1);
+      break;
+    case SelectorKind::kInterval:
+      run.RunEvery(options_.interval);
+      break;
+    case SelectorKind::kDeadReckoning:
+      break;
   }
   return result;
 }

@@ -69,15 +69,15 @@ struct SelectionDecision {
   std::vector<double> map_gains;  // the map term per candidate
   std::vector<int> added;         // frames added to the filter by this decision
   int scored_features = -1;       // known features all candidates were scored on (-1: own)
-  std::string reason;             // "best_gain" | "threshold" | "recovery" | "all" | "interval" | ...
+  std::string reason;  // "best_gain" | "threshold" | "recovery" | "all" | "interval" | ...
 };
 
 // Where each frame ended up.
 struct FramePlacement {
   int frame = -1;
   bool selected = false;
-  bool placed = false;     // selected, or registered to a base frame
-  int base_frame = -1;     // for a non-selected frame
+  bool placed = false;  // selected, or registered to a base frame
+  int base_frame = -1;  // for a non-selected frame
   Eigen::Isometry3d T_base_c = Eigen::Isometry3d::Identity();
   std::string skip_reason;  // when !placed
 };
@@ -107,10 +107,11 @@ class KeyframeSelector {
   // `stop`, if set, is polled between decisions; when it returns true the run ends there
   // (result.interrupted), with everything decided so far intact. `on_decision`, if set, sees
   // each decision as it is made (not for dead reckoning, which decides nothing).
-  SelectionResult Run(FrameSource* source, InformationFilter* filter,
-                      const std::function<void(int, int)>& progress = nullptr,
-                      const std::function<bool()>& stop = nullptr,
-                      const std::function<void(const SelectionDecision&)>& on_decision = nullptr) const;
+  SelectionResult Run(
+      FrameSource* source, InformationFilter* filter,
+      const std::function<void(int, int)>& progress = nullptr,
+      const std::function<bool()>& stop = nullptr,
+      const std::function<void(const SelectionDecision&)>& on_decision = nullptr) const;
 
   // The pose of every placed frame: the filter's estimate for selected frames, the base
   // frame's estimate composed with the registration for the others (dead reckoning: the

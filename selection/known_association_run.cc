@@ -16,7 +16,8 @@ double AlignedRmse(const std::vector<Eigen::Vector3d>& p_est,
                    const std::vector<Eigen::Vector3d>& p_true) {
   const Eigen::Isometry3d T_true_est = AlignHorn(p_est, p_true);
   double sum = 0.0;
-  for (size_t i = 0; i < p_est.size(); ++i) sum += (T_true_est * p_est[i] - p_true[i]).squaredNorm();
+  for (size_t i = 0; i < p_est.size(); ++i)
+    sum += (T_true_est * p_est[i] - p_true[i]).squaredNorm();
   return std::sqrt(sum / static_cast<double>(p_est.size()));
 }
 

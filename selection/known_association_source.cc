@@ -2,8 +2,8 @@
 
 #include <map>
 
-#include <Eigen/Geometry>
 #include <glog/logging.h>
+#include <Eigen/Geometry>
 
 namespace ieslam {
 

@@ -163,7 +163,8 @@ class BadInputTest : public ::testing::Test {
     // Frame 7: a depth image of the wrong size.
     wrong_size_ = Redirect(dir, "depth.txt", 7, "depth/small.png");
     const cv::Mat depth = cv::imread(GoodImage("depth.txt", 7).string(), cv::IMREAD_UNCHANGED);
-    cv::imwrite(wrong_size_.string(), depth(cv::Rect(0, 0, depth.cols / 2, depth.rows / 2)).clone());
+    cv::imwrite(wrong_size_.string(),
+                depth(cv::Rect(0, 0, depth.cols / 2, depth.rows / 2)).clone());
     // Frame 9: a depth image with no measurement at all.
     zero_depth_ = Redirect(dir, "depth.txt", 9, "depth/zero.png");
     cv::imwrite(zero_depth_.string(), cv::Mat::zeros(depth.size(), CV_16UC1));
@@ -233,13 +234,13 @@ TEST_F(DamagedSequenceTest, DamagedFramesAreSkippedAndTheRunStillTracks) {
   EXPECT_TRUE(Contains(damaged_report_, "\"interrupted\": false"));
   // Only the damaged frames are skipped, and the others are tracked as well as ever.
   for (int frame = 0; frame < kFrames; ++frame) {
-    const bool damaged = frame == 3 || frame == 5 || frame == 7 || frame == 9 || frame == 11 ||
-                         frame == 12;
+    const bool damaged =
+        frame == 3 || frame == 5 || frame == 7 || frame == 9 || frame == 11 || frame == 12;
     EXPECT_EQ(SkipReason(frame).empty(), !damaged) << frame << ": " << SkipReason(frame);
   }
-  const Result evaluated = RunIeslam("evaluate --gt " + (root_ / "damaged_out/groundtruth.tum").string() +
-                                     " --est " + (root_ / "damaged_out/trajectory.tum").string() +
-                                     " --delta 1 --delta-unit f");
+  const Result evaluated =
+      RunIeslam("evaluate --gt " + (root_ / "damaged_out/groundtruth.tum").string() + " --est " +
+                (root_ / "damaged_out/trajectory.tum").string() + " --delta 1 --delta-unit f");
   ASSERT_EQ(evaluated.exit_code, 0) << evaluated.output;
   EXPECT_TRUE(Contains(evaluated.output, "ate.pairs 10\n")) << evaluated.output;
   const size_t at = evaluated.output.find("ate.rmse ");
@@ -256,8 +257,8 @@ TEST_F(DamagedSequenceTest, TruncatedImageIsASkipNamingTheFile) {
 }
 
 TEST_F(DamagedSequenceTest, WrongSizeImageIsASkipNamingFileAndSizes) {
-  ExpectSkipped(7, {"frame 7", wrong_size_.string() + " is 160x120 but calibration",
-                    "expects 320x240"});
+  ExpectSkipped(
+      7, {"frame 7", wrong_size_.string() + " is 160x120 but calibration", "expects 320x240"});
 }
 
 TEST_F(DamagedSequenceTest, AllZeroDepthIsASkipNamingTheFile) {
@@ -294,8 +295,10 @@ TEST_F(BadInputTest, ABadFirstFrameEndsTheRunWithExit3) {
   const Result r =
       RunIeslam("run --quiet --dataset " + dir.string() + " --output " + (root_ / "o1").string());
   EXPECT_EQ(r.exit_code, 3) << r.output;
-  EXPECT_TRUE(Contains(r.output, "the first frame cannot start the map: frame 0: cannot decode "
-                                 "colour image " + image.string()))
+  EXPECT_TRUE(Contains(r.output,
+                       "the first frame cannot start the map: frame 0: cannot decode "
+                       "colour image " +
+                           image.string()))
       << r.output;
 }
 
@@ -381,8 +384,8 @@ TEST_F(BadInputTest, UnsortedTimestampsAreExit3NamingFileAndLine) {
   const Result r =
       RunIeslam("run --dataset " + dir.string() + " --output " + (root_ / "o5").string());
   EXPECT_EQ(r.exit_code, 3) << r.output;
-  EXPECT_TRUE(Contains(r.output, (dir / "depth.txt").string() +
-                                     ":8: timestamps must increase strictly"))
+  EXPECT_TRUE(
+      Contains(r.output, (dir / "depth.txt").string() + ":8: timestamps must increase strictly"))
       << r.output;
 }
 
@@ -415,8 +418,8 @@ TEST_F(BadInputTest, NanInGroundTruthIsExit3NamingFileAndLine) {
 TEST_F(BadInputTest, InfInATrajectoryToEvaluateIsExit3NamingFileAndLine) {
   const fs::path est = root_ / "inf.tum";
   WriteFile(est, "# estimate\n1000.0 0 0 0 0 0 0 1\n1000.1 0 inf 0 0 0 0 1\n");
-  const Result r = RunIeslam("evaluate --gt " + (ListsOnly("gt") / "groundtruth.txt").string() + " --est " +
-                             est.string());
+  const Result r = RunIeslam("evaluate --gt " + (ListsOnly("gt") / "groundtruth.txt").string() +
+                             " --est " + est.string());
   EXPECT_EQ(r.exit_code, 3) << r.output;
   EXPECT_TRUE(Contains(r.output, est.string() + ":3")) << r.output;
   EXPECT_TRUE(Contains(r.output, "inf")) << r.output;
@@ -425,8 +428,8 @@ TEST_F(BadInputTest, InfInATrajectoryToEvaluateIsExit3NamingFileAndLine) {
 TEST_F(BadInputTest, EmptyTrajectoryIsExit3NamingIt) {
   const fs::path est = root_ / "empty.tum";
   WriteFile(est, "# nothing estimated\n");
-  const Result r = RunIeslam("evaluate --gt " + (ListsOnly("gt") / "groundtruth.txt").string() + " --est " +
-                             est.string());
+  const Result r = RunIeslam("evaluate --gt " + (ListsOnly("gt") / "groundtruth.txt").string() +
+                             " --est " + est.string());
   EXPECT_EQ(r.exit_code, 3) << r.output;
   EXPECT_TRUE(Contains(r.output, est.string() + ": 0 poses")) << r.output;
 }
@@ -442,7 +445,8 @@ TEST_F(BadInputTest, NanOrInfInCalibrationIsExit2NamingFileAndKey) {
     const Result r =
         RunIeslam("run --dataset " + dir.string() + " --output " + (root_ / "o7").string());
     EXPECT_EQ(r.exit_code, 2) << r.output;
-    EXPECT_TRUE(Contains(r.output, (dir / "calib.yaml").string() + ": key 'colour.fx' must be finite"))
+    EXPECT_TRUE(
+        Contains(r.output, (dir / "calib.yaml").string() + ": key 'colour.fx' must be finite"))
         << r.output;
   }
 }
@@ -477,7 +481,8 @@ TEST_F(BadInputTest, SimulateConfigIsCheckedNamingFileAndKey) {
   const fs::path out = root_ / "o9";
   Result r = RunIeslam("simulate --output " + out.string() + " --config " + config.string());
   EXPECT_EQ(r.exit_code, 2) << r.output;
-  EXPECT_TRUE(Contains(r.output, config.string() + ": bundle adjustment: rejection_chi2 must be >= 0"))
+  EXPECT_TRUE(
+      Contains(r.output, config.string() + ": bundle adjustment: rejection_chi2 must be >= 0"))
       << r.output;
   const std::string missing = (root_ / "no_such.yaml").string();
   // A config file that is missing or a directory is bad usage, as --calib's is.

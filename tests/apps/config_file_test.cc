@@ -36,10 +36,11 @@ TEST(ConfigFileTest, TheShippedDefaultFileHoldsTheDefaults) {
 
 TEST(ConfigFileTest, ValuesOverrideDefaults) {
   RunOptions options;
-  ApplyConfigFile(WriteTemp("ok", "%YAML:1.0\nselector: { kind: \"all\", buffer: 5 }\n"
-                                  "features: { image_scale: 1.0 }\n"
-                                  "registration: { inlier_chi2: 11.34, use_point_covariances: 1 }\n"
-                                  "filter: { iterative_recovery: 0, max_dense_pose_dim: 0 }\n"),
+  ApplyConfigFile(WriteTemp("ok",
+                            "%YAML:1.0\nselector: { kind: \"all\", buffer: 5 }\n"
+                            "features: { image_scale: 1.0 }\n"
+                            "registration: { inlier_chi2: 11.34, use_point_covariances: 1 }\n"
+                            "filter: { iterative_recovery: 0, max_dense_pose_dim: 0 }\n"),
                   &options);
   EXPECT_EQ(options.selector.kind, SelectorKind::kAll);
   EXPECT_EQ(options.selector.buffer_size, 5);
@@ -57,7 +58,8 @@ TEST(ConfigFileTest, ValuesOverrideDefaults) {
 }
 
 TEST(ConfigFileTest, BadFilesNameTheKey) {
-  EXPECT_NE(ErrorOf("%YAML:1.0\nselector: { buffr: 3 }\n").find("selector.buffr"), std::string::npos);
+  EXPECT_NE(ErrorOf("%YAML:1.0\nselector: { buffr: 3 }\n").find("selector.buffr"),
+            std::string::npos);
   EXPECT_NE(ErrorOf("%YAML:1.0\nselektor: { buffer: 3 }\n").find("selektor"), std::string::npos);
   EXPECT_NE(ErrorOf("%YAML:1.0\nselector: { buffer: \"three\" }\n").find("selector.buffer"),
             std::string::npos);

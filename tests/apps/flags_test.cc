@@ -7,9 +7,11 @@
 namespace ieslam {
 namespace {
 
-const std::vector<FlagSpec> kSpecs = {
-    {"dataset", "DIR", "dataset"}, {"buffer", "N", "buffer"}, {"refine", "", "refine"},
-    {"max-diff", "S", "max diff"}, {"buffers", "LIST", "buffers"}};
+const std::vector<FlagSpec> kSpecs = {{"dataset", "DIR", "dataset"},
+                                      {"buffer", "N", "buffer"},
+                                      {"refine", "", "refine"},
+                                      {"max-diff", "S", "max diff"},
+                                      {"buffers", "LIST", "buffers"}};
 
 std::string ErrorOf(const std::vector<std::string>& args, const char* flag = nullptr) {
   try {

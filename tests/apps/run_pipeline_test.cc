@@ -15,8 +15,8 @@
 #include <gtest/gtest.h>
 
 #include "backend/evaluation.h"
-#include "core/error.h"
 #include "command_test_util.h"
+#include "core/error.h"
 #include "frontend/synthetic_dataset.h"
 
 namespace ieslam {
@@ -65,11 +65,11 @@ TEST_F(RunPipelineTest, WritesEveryOutputAndTracksTheSyntheticSequence) {
       (out / "groundtruth.tum").string(), (out / "trajectory.tum").string(), EvaluationOptions());
   EXPECT_EQ(evaluated.ate.translation.rmse, summary.ate_trajectory_m);
   const std::string report = ReadFile(out / "report.json");
-  for (const char* key : {"\"version\"", "\"dataset\"", "\"seed\"", "\"options\"", "\"frames_total\"",
-                          "\"frames_selected\"", "\"frames_skipped\"", "\"state_dim\"", "\"poses\"",
-                          "\"features\"", "\"interrupted\"", "\"seconds\"", "\"frontend\"",
-                          "\"selection\"", "\"filter\"", "\"ate_rmse_m\"", "\"keyframes\"",
-                          "\"trajectory\""}) {
+  for (const char* key :
+       {"\"version\"", "\"dataset\"", "\"seed\"", "\"options\"", "\"frames_total\"",
+        "\"frames_selected\"", "\"frames_skipped\"", "\"state_dim\"", "\"poses\"", "\"features\"",
+        "\"interrupted\"", "\"seconds\"", "\"frontend\"", "\"selection\"", "\"filter\"",
+        "\"ate_rmse_m\"", "\"keyframes\"", "\"trajectory\""}) {
     EXPECT_NE(report.find(key), std::string::npos) << key;
   }
   const std::string ply = ReadFile(out / "map.ply");
@@ -227,7 +227,8 @@ TEST_F(RunPipelineTest, SigintMakesTheCommandExit130WithItsOutputs) {
   const int code = WEXITSTATUS(status);
   if (code == 0) GTEST_SKIP() << "the run finished before the signal arrived";
   EXPECT_EQ(code, 130);
-  EXPECT_NE(ReadFile(fs::path(out) / "report.json").find("\"interrupted\": true"), std::string::npos);
+  EXPECT_NE(ReadFile(fs::path(out) / "report.json").find("\"interrupted\": true"),
+            std::string::npos);
   for (const auto& entry : fs::directory_iterator(out)) {
     EXPECT_EQ(entry.path().string().find(".tmp."), std::string::npos) << entry.path();
   }

@@ -26,7 +26,8 @@ class BaProblemIoTest : public ::testing::Test {
     const testing_ba::TestScene scene = testing_ba::MakeTestScene(5, 60, &rng);
     stored_.problem = testing_ba::MakeTestProblem(scene, 0.05, 0.02, 0.05, true, &rng);
     stored_.camera = scene.camera;
-    for (const auto& [frame, T] : stored_.problem.T_w_c) stored_.timestamps[frame] = 10.0 + frame / 30.0;
+    for (const auto& [frame, T] : stored_.problem.T_w_c)
+      stored_.timestamps[frame] = 10.0 + frame / 30.0;
   }
   void TearDown() override { fs::remove_all(dir_); }
 

@@ -229,8 +229,8 @@ TEST(BundleAdjustmentTest, ContradictedRelativePoseIsRejected) {
   std::map<int, Eigen::Isometry3d> truth;
   BundleAdjustmentProblem problem;
   for (int frame = 0; frame < 5; ++frame) {
-    truth[frame] = PoseToIsometry((Vector6d() << 0.2 * frame, 0.05 * frame, 0.0, 0.1 * frame,
-                                   0.0, -0.05 * frame).finished());
+    truth[frame] = PoseToIsometry(
+        (Vector6d() << 0.2 * frame, 0.05 * frame, 0.0, 0.1 * frame, 0.0, -0.05 * frame).finished());
     problem.T_w_c[frame] = truth[frame];
   }
   std::mt19937 rng(8);
@@ -264,7 +264,8 @@ TEST(BundleAdjustmentTest, ContradictedRelativePoseIsRejected) {
   // With the gate off, the wrong term stays and pulls frame 3 by about a centimetre.
   BundleAdjustmentOptions keep_all;
   keep_all.rejection_chi2 = 0.0;
-  const BundleAdjustmentResult kept = SolveBundleAdjustment(problem, testing_ba::TestCamera(), keep_all);
+  const BundleAdjustmentResult kept =
+      SolveBundleAdjustment(problem, testing_ba::TestCamera(), keep_all);
   EXPECT_EQ(kept.rejected_relative_poses, 0);
   EXPECT_GT((kept.T_w_c.at(3).translation() - truth[3].translation()).norm(), 0.008);
 }
@@ -422,10 +423,10 @@ TEST(BundleAdjustmentTest, ResidualCheckMeasuresTheNoiseInQsUnits) {
   ASSERT_TRUE(right.usable) << right.termination;
   const BundleAdjustmentResult::ResidualCheck& check = right.residual_check;
   EXPECT_EQ(check.observations, static_cast<int>(problem.observations.size()));
-  const int free_parameters = 6 * (static_cast<int>(scene.poses.size()) - 1) +
-                              3 * static_cast<int>(scene.points.size());
-  EXPECT_NEAR(check.redundancy,
-              1.0 - static_cast<double>(free_parameters) / right.num_residuals, 1e-12);
+  const int free_parameters =
+      6 * (static_cast<int>(scene.poses.size()) - 1) + 3 * static_cast<int>(scene.points.size());
+  EXPECT_NEAR(check.redundancy, 1.0 - static_cast<double>(free_parameters) / right.num_residuals,
+              1e-12);
   const double expected = std::sqrt(check.redundancy);
   for (int axis = 0; axis < 3; ++axis) {
     EXPECT_NEAR(check.robust_sigma[axis], expected, 0.15 * expected) << "axis " << axis;
@@ -438,7 +439,8 @@ TEST(BundleAdjustmentTest, ResidualCheckMeasuresTheNoiseInQsUnits) {
   ASSERT_TRUE(wide.usable) << wide.termination;
   for (int axis = 0; axis < 3; ++axis) {
     EXPECT_NEAR(wide.residual_check.robust_sigma[axis], 0.5 * check.robust_sigma[axis],
-                1e-4 * check.robust_sigma[axis]) << "axis " << axis;
+                1e-4 * check.robust_sigma[axis])
+        << "axis " << axis;
   }
 }
 

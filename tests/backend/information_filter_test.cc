@@ -7,8 +7,8 @@
 #include <random>
 #include <string>
 
-#include <Eigen/Cholesky>
 #include <gtest/gtest.h>
+#include <Eigen/Cholesky>
 
 #include "backend/dense_reference_filter.h"
 #include "core/error.h"
@@ -39,8 +39,8 @@ PinholeCamera TestCamera() {
 Scene MakeScene(int num_poses, int num_points, std::mt19937* rng) {
   Scene scene;
   scene.camera = TestCamera();
-  std::uniform_real_distribution<double> x(-3.0, 3.0 + 0.6 * num_poses), y(-2.5, 2.5),
-      z(3.0, 7.0), small(-0.08, 0.08);
+  std::uniform_real_distribution<double> x(-3.0, 3.0 + 0.6 * num_poses), y(-2.5, 2.5), z(3.0, 7.0),
+      small(-0.08, 0.08);
   for (int j = 0; j < num_points; ++j) {
     scene.feature_ids.push_back(1000 + 7 * j);  // sparse, stable ids
     scene.points.emplace_back(x(*rng), y(*rng), z(*rng));
@@ -48,8 +48,8 @@ Scene MakeScene(int num_poses, int num_points, std::mt19937* rng) {
   for (int i = 0; i < num_poses; ++i) {
     scene.frame_ids.push_back(10 * i + 3);
     Vector6d pose;
-    pose << 0.6 * i + small(*rng), small(*rng), 0.05 * i + small(*rng), small(*rng),
-        small(*rng), small(*rng);
+    pose << 0.6 * i + small(*rng), small(*rng), 0.05 * i + small(*rng), small(*rng), small(*rng),
+        small(*rng);
     scene.poses.push_back(pose);
   }
   return scene;
@@ -68,7 +68,8 @@ std::vector<FeatureObservation> Observe(const Scene& scene, int i, bool noisy, s
     const Eigen::Vector3d sigma(0.5, 0.5, 0.005 + 0.005 * z.z());
     obs.Q = sigma.cwiseAbs2().asDiagonal();
     obs.z = z;
-    if (noisy) obs.z += sigma.cwiseProduct(Eigen::Vector3d(normal(*rng), normal(*rng), normal(*rng)));
+    if (noisy)
+      obs.z += sigma.cwiseProduct(Eigen::Vector3d(normal(*rng), normal(*rng), normal(*rng)));
     observations.push_back(obs);
   }
   return observations;
@@ -161,8 +162,8 @@ TEST_P(InformationFilterTest, IdsAreStableAndStateIndicesConsistent) {
   }
   EXPECT_EQ(filter.frame_ids(), std::vector<int>(scene.frame_ids.begin(), scene.frame_ids.end()));
   ASSERT_GE(filter.feature_ids().size(), first_features.size());
-  EXPECT_TRUE(std::equal(first_features.begin(), first_features.end(),
-                         filter.feature_ids().begin()))
+  EXPECT_TRUE(
+      std::equal(first_features.begin(), first_features.end(), filter.feature_ids().begin()))
       << "features keep their place in the order added";
   // Every id maps to its own block, and the blocks tile the state exactly.
   std::vector<int> covered(filter.state_dim(), 0);
@@ -272,9 +273,9 @@ void ExpectJointMarginalMatchesDense(const InformationFilter& filter,
   std::vector<int> indices;
   for (int k = 0; k < 6; ++k) indices.push_back(dense.PoseIndex(frame) + k);
   for (int k = 0; k < 3; ++k) indices.push_back(dense.FeatureIndex(feature) + k);
-  EXPECT_LT(RelativeDifference(
-                filter.MarginalCovariance({VariableRef::Pose(frame), VariableRef::Feature(feature)}),
-                dense.CovarianceOf(indices)),
+  EXPECT_LT(RelativeDifference(filter.MarginalCovariance(
+                                   {VariableRef::Pose(frame), VariableRef::Feature(feature)}),
+                               dense.CovarianceOf(indices)),
             1e-9)
       << "pose " << frame << ", feature " << feature;
 }
@@ -290,11 +291,13 @@ TEST_P(InformationFilterTest, AgreesWithTheDenseReferenceFilter) {
     ASSERT_EQ(sparse.state_dim(), dense.state_dim());
     for (int id : sparse.frame_ids()) {
       EXPECT_LT((sparse.pose(id) - dense.pose(id)).norm(), 1e-9) << "frame " << id;
-      EXPECT_LT(RelativeDifference(sparse.PoseCovariance(id),
-                                   dense.CovarianceOf({dense.PoseIndex(id), dense.PoseIndex(id) + 1,
-                                                       dense.PoseIndex(id) + 2, dense.PoseIndex(id) + 3,
-                                                       dense.PoseIndex(id) + 4, dense.PoseIndex(id) + 5})),
-                1e-9) << "frame " << id;
+      EXPECT_LT(RelativeDifference(
+                    sparse.PoseCovariance(id),
+                    dense.CovarianceOf({dense.PoseIndex(id), dense.PoseIndex(id) + 1,
+                                        dense.PoseIndex(id) + 2, dense.PoseIndex(id) + 3,
+                                        dense.PoseIndex(id) + 4, dense.PoseIndex(id) + 5})),
+                1e-9)
+          << "frame " << id;
     }
     for (int64_t id : sparse.feature_ids()) {
       EXPECT_LT((sparse.feature(id) - dense.feature(id)).norm(), 1e-9) << "feature " << id;
@@ -364,11 +367,9 @@ TEST_P(InformationFilterTest, FastGainEqualsLogDetOfTheExpandedMatrix) {
         const double fast = sparse.InformationGain(candidates[c], observations[c], count, known);
         const double expanded =
             sparse.LogDetExpandedInformation(candidates[c], observations[c], count) - log_det;
-        const int dense_count =
-            count < 0 ? sparse.CountNewFeatures(observations[c]) : count;
-        const double paper =
-            dense.LogDetExpanded(candidates[c], observations[c], dense_count) -
-            dense.LogDetInformation();
+        const int dense_count = count < 0 ? sparse.CountNewFeatures(observations[c]) : count;
+        const double paper = dense.LogDetExpanded(candidates[c], observations[c], dense_count) -
+                             dense.LogDetInformation();
         EXPECT_NEAR(fast, expanded, 1e-6 * std::abs(expanded)) << "candidate " << c;
         EXPECT_NEAR(fast, paper, 1e-9 * std::abs(paper)) << "candidate " << c;
         EXPECT_GT(fast, 0.0);
@@ -414,12 +415,10 @@ TEST_P(InformationFilterTest, InPlaceUpdatesAndOrderingDoNotChangeTheResult) {
     FillReducingOrdering ordering;
     double spare_capacity;
   };
-  const std::vector<Variant> variants = {{FillReducingOrdering::kMetis, 0.0},
-                                         {FillReducingOrdering::kMetis, 100.0},
-                                         {FillReducingOrdering::kAmd, 100.0},
-                                         {FillReducingOrdering::kNatural, 0.0},
-                                         {FillReducingOrdering::kNatural, 1.0},
-                                         {FillReducingOrdering::kCholmodChoice, 0.5}};
+  const std::vector<Variant> variants = {
+      {FillReducingOrdering::kMetis, 0.0},   {FillReducingOrdering::kMetis, 100.0},
+      {FillReducingOrdering::kAmd, 100.0},   {FillReducingOrdering::kNatural, 0.0},
+      {FillReducingOrdering::kNatural, 1.0}, {FillReducingOrdering::kCholmodChoice, 0.5}};
   std::vector<std::unique_ptr<InformationFilter>> filters;
   for (const Variant& variant : variants) {
     InformationFilterOptions options;
@@ -508,7 +507,7 @@ TEST(InformationFilterLazyTest, AgreesWithRefactoringEveryUpdateThroughALoopClos
     EXPECT_LT(std::sqrt(error.dot(dense.information() * error)), default_options.cg_tolerance)
         << "pose " << i;
   }
-  EXPECT_GT(iterative, num_poses / 3);  // the others: refactoring was as cheap
+  EXPECT_GT(iterative, num_poses / 3);          // the others: refactoring was as cheap
   EXPECT_GT(default_iterative, num_poses / 3);  // the default's bound was checked on CG states
   for (int id : lazy.frame_ids()) {
     EXPECT_LT((lazy.pose(id) - dense.pose(id)).norm(), 1e-9) << "frame " << id;

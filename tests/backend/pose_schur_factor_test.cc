@@ -7,8 +7,8 @@
 #include <utility>
 #include <vector>
 
-#include <Eigen/Cholesky>
 #include <gtest/gtest.h>
+#include <Eigen/Cholesky>
 
 namespace ieslam {
 namespace {
@@ -43,8 +43,8 @@ struct RandomProblem {
       obs.I_pf = h.leftCols<6>().transpose() * h.rightCols<3>();
       // (+ a little, so that no feature is nearly undetermined: the dense inverse used as
       // the reference stays accurate to 1e-9.)
-      obs.I_ff = h.rightCols<3>().transpose() * h.rightCols<3>() +
-                 0.5 * Eigen::Matrix3d::Identity();
+      obs.I_ff =
+          h.rightCols<3>().transpose() * h.rightCols<3>() + 0.5 * Eigen::Matrix3d::Identity();
       observations.push_back(obs);
     }
     const int pose_offset = dim;
@@ -94,8 +94,8 @@ struct RandomProblem {
 TEST(PoseSchurFactorTest, AgreesWithTheDenseFactorThroughEvictionsAndMoves) {
   for (const int prefetch : {0, 1, 4}) {
     for (const int evict_after : {1, 3, 100}) {
-      SCOPED_TRACE(::testing::Message() << "prefetch " << prefetch << ", evict_after "
-                                        << evict_after);
+      SCOPED_TRACE(::testing::Message()
+                   << "prefetch " << prefetch << ", evict_after " << evict_after);
       RandomProblem problem(prefetch * 10 + evict_after);
       PoseSchurFactor factor({prefetch, evict_after});
       for (int k = 0; k < 40; ++k) {
@@ -155,8 +155,8 @@ TEST(PoseSchurFactorTest, InverseOfManyVariablesFirstSeenAtDifferentTimes) {
 TEST(PoseSchurFactorTest, LazyUpdatesSolveAsTheDenseFactorThroughReturns) {
   for (const auto& [evict_after, single_speedup] :
        std::vector<std::pair<int, double>>{{1, 2.0}, {3, 2.0}, {3, 1e6}, {3, 0.0}}) {
-    SCOPED_TRACE(::testing::Message() << "evict_after " << evict_after << ", single_speedup "
-                                      << single_speedup);
+    SCOPED_TRACE(::testing::Message()
+                 << "evict_after " << evict_after << ", single_speedup " << single_speedup);
     RandomProblem problem(40 + evict_after);
     PoseSchurFactor factor({2, evict_after, 1e-10, 60, 5.0, single_speedup});
     std::uniform_real_distribution<double> uniform(-1.0, 1.0);
@@ -224,8 +224,8 @@ TEST(PoseSchurFactorTest, ALazyAdditionThatIsNotPositiveDefiniteIsRefused) {
   ASSERT_TRUE(factor.SolveIteratively(i, zero, &before));
   SchurObservation obs;
   obs.feature_offset = problem.offset_of.begin()->second;
-  EXPECT_FALSE(factor.AddPose(problem.dim, Eigen::Matrix<double, 6, 6>::Zero(), {obs},
-                              SchurUpdate::kLazy));
+  EXPECT_FALSE(
+      factor.AddPose(problem.dim, Eigen::Matrix<double, 6, 6>::Zero(), {obs}, SchurUpdate::kLazy));
   EXPECT_EQ(factor.num_poses(), 25);
   ASSERT_TRUE(factor.SolveIteratively(i, zero, &after));
   EXPECT_EQ((after - before).norm(), 0.0);

@@ -6,9 +6,9 @@
 #include <random>
 #include <vector>
 
+#include <gtest/gtest.h>
 #include <Eigen/Cholesky>
 #include <Eigen/Core>
-#include <gtest/gtest.h>
 
 #include "backend/sparse_information.h"
 

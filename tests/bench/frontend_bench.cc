@@ -68,7 +68,8 @@ void BM_MatchPair(benchmark::State& state) {
   Fixture& f = Shared();
   for (auto _ : state) {
     benchmark::DoNotOptimize(MatchDescriptors(f.processed[1].features.descriptors,
-                                              f.processed[0].features.descriptors, f.options.matching));
+                                              f.processed[0].features.descriptors,
+                                              f.options.matching));
   }
 }
 BENCHMARK(BM_MatchPair)->Unit(benchmark::kMillisecond);
@@ -94,7 +95,8 @@ void BM_DatabaseAdd(benchmark::State& state) {
   const int frames = static_cast<int>(state.range(0));
   for (auto _ : state) {
     BaseFrameDatabase database{DatabaseOptions()};
-    for (int k = 0; k < frames; ++k) database.Add(k, f.processed[k % f.processed.size()].features.descriptors);
+    for (int k = 0; k < frames; ++k)
+      database.Add(k, f.processed[k % f.processed.size()].features.descriptors);
     benchmark::DoNotOptimize(database.num_frames());
   }
   state.counters["ms_per_base_frame"] = benchmark::Counter(
@@ -129,7 +131,8 @@ void BM_DecodeDepth(benchmark::State& state) {
   Fixture& f = Shared();
   int i = 0;
   for (auto _ : state) {
-    benchmark::DoNotOptimize(cv::imread(f.dataset->info(i++ % 200).depth_path, cv::IMREAD_UNCHANGED));
+    benchmark::DoNotOptimize(
+        cv::imread(f.dataset->info(i++ % 200).depth_path, cv::IMREAD_UNCHANGED));
   }
 }
 BENCHMARK(BM_DecodeDepth)->Unit(benchmark::kMillisecond);

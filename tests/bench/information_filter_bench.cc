@@ -94,8 +94,7 @@ void Load(const Problem& problem, int count, InformationFilter* filter) {
 // Initial value as a registration would give it: the previous pose's estimate moved by
 // the true relative motion (the estimate drifts from the truth, and the features with it).
 void AddNext(const Problem& problem, int next, InformationFilter* filter) {
-  const Vector6d initial =
-      filter->pose(next - 1) + (problem.poses[next] - problem.poses[next - 1]);
+  const Vector6d initial = filter->pose(next - 1) + (problem.poses[next] - problem.poses[next - 1]);
   filter->AddPose(next, initial, problem.observations[next]);
 }
 
@@ -157,7 +156,8 @@ void BM_InformationFilterUpdate_PaperLoops7275(benchmark::State& state) {
   TimeUpdates(problem, static_cast<int>(problem.poses.size()), state);
 }
 BENCHMARK(BM_InformationFilterUpdate_PaperLoops7275)
-    ->Iterations(kTimedUpdates)->Unit(benchmark::kMillisecond);
+    ->Iterations(kTimedUpdates)
+    ->Unit(benchmark::kMillisecond);
 
 // Lazy refactoring makes the cost of single updates uneven: the mean over 24 updates.
 void BM_InformationFilterUpdate_PaperLoops7275_24(benchmark::State& state) {
@@ -165,21 +165,24 @@ void BM_InformationFilterUpdate_PaperLoops7275_24(benchmark::State& state) {
   TimeUpdates(problem, static_cast<int>(problem.poses.size()), state);
 }
 BENCHMARK(BM_InformationFilterUpdate_PaperLoops7275_24)
-    ->Iterations(24)->Unit(benchmark::kMillisecond);
+    ->Iterations(24)
+    ->Unit(benchmark::kMillisecond);
 
 void BM_InformationFilterUpdate_PaperLoops7275_ExactRecovery(benchmark::State& state) {
   static const Problem problem = PaperProblem(4000);
   TimeUpdates(problem, static_cast<int>(problem.poses.size()), state, ExactRecovery());
 }
 BENCHMARK(BM_InformationFilterUpdate_PaperLoops7275_ExactRecovery)
-    ->Iterations(kTimedUpdates)->Unit(benchmark::kMillisecond);
+    ->Iterations(kTimedUpdates)
+    ->Unit(benchmark::kMillisecond);
 
 void BM_InformationFilterUpdate_PaperLoops7275_SparseOnly(benchmark::State& state) {
   static const Problem problem = PaperProblem(4000);
   TimeUpdates(problem, static_cast<int>(problem.poses.size()), state, SparseOnly());
 }
 BENCHMARK(BM_InformationFilterUpdate_PaperLoops7275_SparseOnly)
-    ->Iterations(kTimedUpdates)->Unit(benchmark::kMillisecond);
+    ->Iterations(kTimedUpdates)
+    ->Unit(benchmark::kMillisecond);
 
 // The corridor at ~7,275, ~19,000 and ~50,000 state dimensions (~19 a pose).
 void BM_InformationFilterUpdate_Corridor(benchmark::State& state) {
@@ -188,7 +191,9 @@ void BM_InformationFilterUpdate_Corridor(benchmark::State& state) {
   TimeUpdates(problem, poses, state);
 }
 BENCHMARK(BM_InformationFilterUpdate_Corridor)
-    ->Arg(382)->Arg(1000)->Arg(2620)
+    ->Arg(382)
+    ->Arg(1000)
+    ->Arg(2620)
     ->Iterations(kTimedUpdates)
     ->Unit(benchmark::kMillisecond);
 
@@ -198,7 +203,9 @@ void BM_InformationFilterUpdate_Corridor_SparseOnly(benchmark::State& state) {
   TimeUpdates(problem, poses, state, SparseOnly());
 }
 BENCHMARK(BM_InformationFilterUpdate_Corridor_SparseOnly)
-    ->Arg(382)->Iterations(kTimedUpdates)->Unit(benchmark::kMillisecond);
+    ->Arg(382)
+    ->Iterations(kTimedUpdates)
+    ->Unit(benchmark::kMillisecond);
 
 // Growth with the number of poses on the paper's simulation (2,000 features): the update
 // at pose N, for N = 50 ... 300.
@@ -207,14 +214,18 @@ void BM_InformationFilterUpdate_PaperGrowth(benchmark::State& state) {
   TimeUpdates(problem, static_cast<int>(state.range(0)), state);
 }
 BENCHMARK(BM_InformationFilterUpdate_PaperGrowth)
-    ->DenseRange(50, 300, 50)->Iterations(kTimedUpdates)->Unit(benchmark::kMillisecond);
+    ->DenseRange(50, 300, 50)
+    ->Iterations(kTimedUpdates)
+    ->Unit(benchmark::kMillisecond);
 
 void BM_InformationFilterUpdate_PaperGrowth_ExactRecovery(benchmark::State& state) {
   static const Problem problem = PaperProblem(2000);
   TimeUpdates(problem, static_cast<int>(state.range(0)), state, ExactRecovery());
 }
 BENCHMARK(BM_InformationFilterUpdate_PaperGrowth_ExactRecovery)
-    ->DenseRange(50, 300, 50)->Iterations(kTimedUpdates)->Unit(benchmark::kMillisecond);
+    ->DenseRange(50, 300, 50)
+    ->Iterations(kTimedUpdates)
+    ->Unit(benchmark::kMillisecond);
 
 // All 300 frames of the paper's simulation through the filter, one update each: the
 // all-frames row of `ieslam simulate`.
@@ -245,13 +256,13 @@ void BM_InformationFilter_PaperAllFrames_ExactRecovery(benchmark::State& state) 
   PaperAllFrames(state, ExactRecovery());
 }
 BENCHMARK(BM_InformationFilter_PaperAllFrames_ExactRecovery)
-    ->Iterations(1)->Unit(benchmark::kSecond);
+    ->Iterations(1)
+    ->Unit(benchmark::kSecond);
 
 void BM_InformationFilter_PaperAllFrames_SparseOnly(benchmark::State& state) {
   PaperAllFrames(state, SparseOnly());
 }
-BENCHMARK(BM_InformationFilter_PaperAllFrames_SparseOnly)
-    ->Iterations(1)->Unit(benchmark::kSecond);
+BENCHMARK(BM_InformationFilter_PaperAllFrames_SparseOnly)->Iterations(1)->Unit(benchmark::kSecond);
 
 // The joint covariance of 150 features seen by the last frames: what the selector recovers
 // once per look-ahead buffer. After all 300 frames of the paper's simulation (dense: the
@@ -280,14 +291,16 @@ void BM_InformationFilter_JointFeatureCovariance150(benchmark::State& state) {
   JointFeatureCovariance150(problem, state);
 }
 BENCHMARK(BM_InformationFilter_JointFeatureCovariance150)
-    ->Iterations(5)->Unit(benchmark::kMillisecond);
+    ->Iterations(5)
+    ->Unit(benchmark::kMillisecond);
 
 void BM_InformationFilter_JointFeatureCovariance150_Corridor35k(benchmark::State& state) {
   static const Problem problem = CorridorProblem(1900);
   JointFeatureCovariance150(problem, state);
 }
 BENCHMARK(BM_InformationFilter_JointFeatureCovariance150_Corridor35k)
-    ->Iterations(5)->Unit(benchmark::kMillisecond);
+    ->Iterations(5)
+    ->Unit(benchmark::kMillisecond);
 
 // The selector's fast gain (METHOD.md §4): scoring one candidate given the joint covariance
 // of the known features it observes, with 100 and 1000 poses in the map. The scoring does not
@@ -318,7 +331,9 @@ void BM_InformationGainPerCandidate_Corridor(benchmark::State& state) {
   state.counters["covariance_ms"] = covariance_ms;
 }
 BENCHMARK(BM_InformationGainPerCandidate_Corridor)
-    ->Arg(100)->Arg(1000)->Unit(benchmark::kMillisecond);
+    ->Arg(100)
+    ->Arg(1000)
+    ->Unit(benchmark::kMillisecond);
 
 }  // namespace
 }  // namespace ieslam

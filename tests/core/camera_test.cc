@@ -23,8 +23,8 @@ TEST(CameraTest, ProjectionMatchesOpenCvWithDistortion) {
   const PinholeCamera camera = TumFreiburg1();
   std::vector<cv::Point3d> points = {{0.1, -0.2, 1.5}, {-0.4, 0.3, 2.0}, {0.0, 0.0, 1.0}};
   std::vector<cv::Point2d> expected;
-  const cv::Mat K = (cv::Mat_<double>(3, 3) << camera.fx, 0, camera.cx, 0, camera.fy, camera.cy,
-                     0, 0, 1);
+  const cv::Mat K =
+      (cv::Mat_<double>(3, 3) << camera.fx, 0, camera.cx, 0, camera.fy, camera.cy, 0, 0, 1);
   const cv::Mat dist(1, 5, CV_64F, const_cast<double*>(camera.distortion.data()));
   cv::projectPoints(points, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), K, dist, expected);
   for (size_t i = 0; i < points.size(); ++i) {

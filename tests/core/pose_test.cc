@@ -26,8 +26,10 @@ TEST(PoseTest, EulerZyxIsYawPitchRollInThatOrder) {
        Eigen::AngleAxisd(0.7, Eigen::Vector3d::UnitX()).toRotationMatrix());
   EXPECT_LT((EulerZyxToRotation(abg) - expected).norm(), 1e-15);
   // A pure yaw of 90 degrees turns x into y.
-  EXPECT_LT((EulerZyxToRotation({M_PI / 2, 0, 0}) * Eigen::Vector3d::UnitX() -
-             Eigen::Vector3d::UnitY()).norm(), 1e-15);
+  EXPECT_LT(
+      (EulerZyxToRotation({M_PI / 2, 0, 0}) * Eigen::Vector3d::UnitX() - Eigen::Vector3d::UnitY())
+          .norm(),
+      1e-15);
 }
 
 TEST(PoseTest, RotationEulerRoundTripAwayFromGimbalLock) {
@@ -36,7 +38,9 @@ TEST(PoseTest, RotationEulerRoundTripAwayFromGimbalLock) {
     const Vector6d pose = RandomPose(&rng);
     const Eigen::Vector3d back = RotationToEulerZyx(EulerZyxToRotation(pose.tail<3>()));
     EXPECT_LT(PoseDifference((Vector6d() << 0, 0, 0, back).finished(),
-                             (Vector6d() << 0, 0, 0, pose.tail<3>()).finished()).norm(), 1e-9);
+                             (Vector6d() << 0, 0, 0, pose.tail<3>()).finished())
+                  .norm(),
+              1e-9);
   }
 }
 
@@ -104,8 +108,8 @@ TEST(PoseTest, WrapAngleAndPoseDifference) {
 TEST(PoseTest, RotationAngleBetween) {
   const Eigen::Matrix3d R = EulerZyxToRotation({0.2, 0.1, -0.3});
   EXPECT_NEAR(RotationAngleBetween(R, R), 0.0, 1e-7);
-  const Eigen::Matrix3d turned = R * Eigen::AngleAxisd(0.25, Eigen::Vector3d(1, 2, 3).normalized())
-                                         .toRotationMatrix();
+  const Eigen::Matrix3d turned =
+      R * Eigen::AngleAxisd(0.25, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
   EXPECT_NEAR(RotationAngleBetween(R, turned), 0.25, 1e-12);
 }
 

@@ -103,7 +103,8 @@ TEST_F(FramePrefetcherTest, SequentialModeStartsNoThreadAndComputesOnDemand) {
 TEST_F(FramePrefetcherTest, BadImageFailsItsOwnFrameOnly) {
   // A copy of the dataset with frame 3's colour image corrupted.
   const fs::path copy = root_ / "corrupt";
-  fs::copy(root_ / "synthetic", copy, fs::copy_options::recursive | fs::copy_options::overwrite_existing);
+  fs::copy(root_ / "synthetic", copy,
+           fs::copy_options::recursive | fs::copy_options::overwrite_existing);
   const auto original = OpenDataset(copy.string(), DatasetOptions());
   const std::string bad = original->info(3).colour_path;
   std::ofstream(bad, std::ios::binary | std::ios::trunc) << "not a png";

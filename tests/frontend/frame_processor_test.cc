@@ -35,12 +35,14 @@ TEST_F(FrameProcessorTest, LiftsMostKeypointsOfARealFrame) {
 
 TEST_F(FrameProcessorTest, RealPairsRegisterWithinTheTargets) {
   const FrameProcessor processor(dataset_->rig(), FrontendOptions());
-  for (const auto& [i, j] : std::vector<std::pair<int, int>>{{0, 5}, {100, 105}, {250, 270}, {400, 405}}) {
+  for (const auto& [i, j] :
+       std::vector<std::pair<int, int>>{{0, 5}, {100, 105}, {250, 270}, {400, 405}}) {
     const ProcessedFrame a = processor.Process(dataset_->Load(i));
     const ProcessedFrame b = processor.Process(dataset_->Load(j));
     const FrameRegistration registration =
         RegisterFrames(a, b, processor.options().matching, processor.options().registration);
-    ASSERT_TRUE(registration.result.success) << i << "->" << j << ": " << registration.result.reason;
+    ASSERT_TRUE(registration.result.success)
+        << i << "->" << j << ": " << registration.result.reason;
     const Eigen::Isometry3d T_gt = a.info.T_w_c_gt->inverse() * *b.info.T_w_c_gt;
     const Eigen::Isometry3d& T = registration.result.T_a_b;
     // The success criterion of issue 4 (the ground truth itself is good to about 1 cm).
@@ -149,9 +151,9 @@ void ExpectSyntheticPairsRegisterWithinNoise(SyntheticSensor sensor, double max_
       Eigen::Matrix<double, 3, 6> J;
       J.leftCols<3>() = -Eigen::Matrix3d::Identity();
       J.rightCols<3>() << 0, -Rp_b.z(), Rp_b.y(), Rp_b.z(), 0, -Rp_b.x(), -Rp_b.y(), Rp_b.x(), 0;
-      const Eigen::Matrix3d S = a.points[match.train].p_c_covariance +
-                                T_gt.linear() * b.points[match.query].p_c_covariance *
-                                    T_gt.linear().transpose();
+      const Eigen::Matrix3d S =
+          a.points[match.train].p_c_covariance +
+          T_gt.linear() * b.points[match.query].p_c_covariance * T_gt.linear().transpose();
       information += J.transpose() * S.ldlt().solve(J);
     }
     const Matrix6d covariance = information.inverse();

@@ -196,8 +196,7 @@ TEST(RegistrationTest, WeightingByCovarianceBeatsTheUnweightedFit) {
     weighted_t2 += std::pow(TranslationError(weighted.T_a_b, scene.T_a_b), 2);
     unweighted_r2 +=
         std::pow(RotationAngleBetween(unweighted.T_a_b.linear(), scene.T_a_b.linear()), 2);
-    weighted_r2 +=
-        std::pow(RotationAngleBetween(weighted.T_a_b.linear(), scene.T_a_b.linear()), 2);
+    weighted_r2 += std::pow(RotationAngleBetween(weighted.T_a_b.linear(), scene.T_a_b.linear()), 2);
   }
   EXPECT_LT(std::sqrt(weighted_t2 / unweighted_t2), 0.4);
   EXPECT_LT(std::sqrt(weighted_r2 / unweighted_r2), 0.5);

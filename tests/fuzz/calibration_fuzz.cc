@@ -31,7 +31,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const ieslam::Rig back = ieslam::ParseCalibration(ieslam::FormatCalibration(rig), "written");
   Require(back.name == rig.name && back.registered == rig.registered &&
           back.pixel_sigma == rig.pixel_sigma && back.colour.fx == rig.colour.fx &&
-          back.colour.width == rig.colour.width && back.range.depth_scale == rig.range.depth_scale &&
+          back.colour.width == rig.colour.width &&
+          back.range.depth_scale == rig.range.depth_scale &&
           back.range.invalid_values == rig.range.invalid_values &&
           back.T_colour_range.isApprox(rig.T_colour_range, 1e-12));
   return 0;

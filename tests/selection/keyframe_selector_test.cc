@@ -97,7 +97,8 @@ TEST(KeyframeSelectorTest, IntervalSelectsEveryNthFrame) {
   options.interval = 4;
   const KnownAssociationMetrics m = RunKnownAssociation(input, options, InformationFilterOptions());
   ASSERT_EQ(m.frames_used, 20);
-  for (size_t i = 0; i < m.selection.selected.size(); ++i) EXPECT_EQ(m.selection.selected[i], 4 * static_cast<int>(i));
+  for (size_t i = 0; i < m.selection.selected.size(); ++i)
+    EXPECT_EQ(m.selection.selected[i], 4 * static_cast<int>(i));
 }
 
 TEST(KeyframeSelectorTest, DeadReckoningDriftsMoreThanTheFilter) {
@@ -122,8 +123,8 @@ TEST(KeyframeSelectorTest, CandidatesNeedAViewChangeAndTheFramesBetweenArePlaced
   const KnownAssociationInput input = ShortSimulation(true);
   std::vector<double> per_frame;
   for (size_t k = 1; k < input.T_w_c_true.size(); ++k) {
-    const Eigen::Isometry3d T = PoseToIsometry(input.T_w_c_true[k - 1]).inverse() *
-                                PoseToIsometry(input.T_w_c_true[k]);
+    const Eigen::Isometry3d T =
+        PoseToIsometry(input.T_w_c_true[k - 1]).inverse() * PoseToIsometry(input.T_w_c_true[k]);
     per_frame.push_back(Eigen::AngleAxisd(T.linear()).angle() * 180.0 / M_PI);
   }
   std::sort(per_frame.begin(), per_frame.end());
@@ -145,7 +146,8 @@ TEST(KeyframeSelectorTest, CandidatesNeedAViewChangeAndTheFramesBetweenArePlaced
   }
   ASSERT_GT(gaps, 10);
   EXPECT_GT(wide, 0.8 * gaps);  // the rotation varies along the trajectory
-  for (const FramePlacement& p : spaced.selection.frames) EXPECT_TRUE(p.placed) << "frame " << p.frame;
+  for (const FramePlacement& p : spaced.selection.frames)
+    EXPECT_TRUE(p.placed) << "frame " << p.frame;
   EXPECT_LT(spaced.ate_rmse_m, 0.05);
   SelectorOptions bad;
   bad.min_view_change_deg = -1.0;
