@@ -5,7 +5,7 @@
 #include <cmath>
 #include <cstdio>
 
-#include "backend/evaluation.h"
+#include "backend/evaluation/evaluation.h"
 #include "core/error.h"
 #include "core/file_util.h"
 #include "core/stopwatch.h"

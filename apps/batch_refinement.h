@@ -8,7 +8,7 @@
 #include "backend/ba_problem_io.h"
 #include "backend/bundle_adjustment.h"
 #include "backend/depth_alignment.h"
-#include "backend/filter_smoother_comparison.h"
+#include "backend/evaluation/filter_smoother_comparison.h"
 #include "core/dataset.h"
 #include "core/json.h"
 #include "core/range_cloud.h"

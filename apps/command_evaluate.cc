@@ -3,7 +3,7 @@
 
 #include "apps/app_util.h"
 #include "apps/commands.h"
-#include "backend/evaluation.h"
+#include "backend/evaluation/evaluation.h"
 #include "core/error.h"
 #include "core/file_util.h"
 

@@ -14,7 +14,7 @@
 #include "apps/commands.h"
 #include "apps/config_file.h"
 #include "apps/run_pipeline.h"
-#include "backend/evaluation.h"
+#include "backend/evaluation/evaluation.h"
 #include "core/error.h"
 #include "core/file_util.h"
 

@@ -11,11 +11,11 @@
 #include "apps/config_file.h"
 #include "apps/interrupt.h"
 #include "apps/run_pipeline.h"
-#include "backend/consistency.h"
+#include "backend/evaluation/consistency.h"
 #include "core/error.h"
 #include "core/file_util.h"
-#include "frontend/paper_simulation.h"
-#include "selection/known_association_run.h"
+#include "frontend/simulation/paper_simulation.h"
+#include "selection/pipeline/known_association_run.h"
 
 namespace ieslam {
 namespace {

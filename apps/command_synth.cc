@@ -5,7 +5,7 @@
 #include "apps/commands.h"
 #include "apps/interrupt.h"
 #include "core/error.h"
-#include "frontend/synthetic_dataset.h"
+#include "frontend/simulation/synthetic_dataset.h"
 
 namespace ieslam {
 

@@ -6,7 +6,7 @@
 #include <map>
 #include <string>
 
-#include "backend/filter_smoother_comparison.h"
+#include "backend/evaluation/filter_smoother_comparison.h"
 #include "core/json.h"
 
 namespace ieslam {

@@ -22,7 +22,7 @@
 
 #include "command_test_util.h"
 #include "core/calibration.h"
-#include "frontend/synthetic_dataset.h"
+#include "frontend/simulation/synthetic_dataset.h"
 
 namespace ieslam {
 namespace {

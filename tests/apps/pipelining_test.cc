@@ -11,7 +11,7 @@
 
 #include "apps/run_pipeline.h"
 #include "command_test_util.h"
-#include "frontend/synthetic_dataset.h"
+#include "frontend/simulation/synthetic_dataset.h"
 
 namespace ieslam {
 namespace {

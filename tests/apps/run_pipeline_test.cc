@@ -14,10 +14,10 @@
 
 #include <gtest/gtest.h>
 
-#include "backend/evaluation.h"
+#include "backend/evaluation/evaluation.h"
 #include "command_test_util.h"
 #include "core/error.h"
-#include "frontend/synthetic_dataset.h"
+#include "frontend/simulation/synthetic_dataset.h"
 
 namespace ieslam {
 namespace {

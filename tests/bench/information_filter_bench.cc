@@ -4,7 +4,8 @@
 //
 // Two kinds of problem, both with the paper's statistics (~100 (u, v, d) observations per
 // pose, every feature seen from tens of poses):
-//  - the paper's simulation (frontend/paper_simulation.h): two loops through one volume, so
+//  - the paper's simulation (frontend/simulation/paper_simulation.h): two loops through one volume,
+//  so
 //    the second loop re-observes the first loop's features and the pose block of the factor
 //    fills in completely -- the hard case;
 //  - a corridor: a camera sliding along a long box of features, never coming back, so the
@@ -26,7 +27,7 @@
 #include <benchmark/benchmark.h>
 
 #include "backend/information_filter.h"
-#include "frontend/paper_simulation.h"
+#include "frontend/simulation/paper_simulation.h"
 
 namespace ieslam {
 namespace {

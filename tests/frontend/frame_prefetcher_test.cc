@@ -11,7 +11,7 @@
 #include <gtest/gtest.h>
 
 #include "core/error.h"
-#include "frontend/synthetic_dataset.h"
+#include "frontend/simulation/synthetic_dataset.h"
 
 namespace ieslam {
 namespace {

@@ -3,7 +3,7 @@
 #include <gtest/gtest.h>
 
 #include "core/pose.h"
-#include "frontend/synthetic_dataset.h"
+#include "frontend/simulation/synthetic_dataset.h"
 
 namespace ieslam {
 namespace {

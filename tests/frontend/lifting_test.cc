@@ -7,14 +7,15 @@
 #include <random>
 
 #include "core/dataset.h"
-#include "frontend/synthetic_dataset.h"
+#include "frontend/simulation/synthetic_dataset.h"
 
 namespace ieslam {
 namespace {
 
-// Lifting through the offset range imager of the pair set-up (frontend/synthetic_dataset.h:
-// 176x144, 5 cm to the side, turned ~0.5 deg) against the exact ray-cast range and against
-// lifting the same pixels through a depth image registered to the colour camera.
+// Lifting through the offset range imager of the pair set-up
+// (frontend/simulation/synthetic_dataset.h: 176x144, 5 cm to the side, turned ~0.5 deg) against the
+// exact ray-cast range and against lifting the same pixels through a depth image registered to the
+// colour camera.
 //
 // Tolerance without noise. The lifter returns the range, along the colour ray, of the range
 // sample nearest the ray. Samples lie one range pixel (d / f_range) apart across the ray,

@@ -7,7 +7,7 @@
 #include <unistd.h>
 
 #include "core/dataset.h"
-#include "frontend/synthetic_dataset.h"
+#include "frontend/simulation/synthetic_dataset.h"
 
 namespace ieslam {
 namespace {

@@ -5,9 +5,9 @@
 
 #include <gtest/gtest.h>
 
-#include "frontend/paper_simulation.h"
-#include "selection/known_association_run.h"
-#include "selection/known_association_source.h"
+#include "frontend/simulation/known_association_source.h"
+#include "frontend/simulation/paper_simulation.h"
+#include "selection/pipeline/known_association_run.h"
 
 namespace ieslam {
 namespace {
