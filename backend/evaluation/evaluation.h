@@ -6,6 +6,7 @@
 #pragma once
 
 #include <cstddef>
+#include <istream>
 #include <string>
 #include <vector>
 
@@ -146,6 +147,14 @@ EvaluationResult EvaluateTrajectories(const Trajectory& gt, const Trajectory& es
 // naming file and line, as in ReadTumTrajectory.
 Trajectory ReadTumTrajectoryForEvaluation(const std::string& path,
                                           std::vector<std::string>* warnings = nullptr);
+// The same from a stream; `path` names it in messages.
+Trajectory ParseTumTrajectoryForEvaluation(std::istream& in, const std::string& path,
+                                           std::vector<std::string>* warnings = nullptr);
+// `trajectory` as ReadTumTrajectoryForEvaluation reads it back from the TUM file
+// WriteTumTrajectory makes of it (values rounded as the file prints them), without a file:
+// what a report's ATE must be computed on to equal `ieslam evaluate` on the written files.
+// `name` names it in messages.
+Trajectory AsReadBackFromTum(const Trajectory& trajectory, const std::string& name);
 
 // Reads both files (ReadTumTrajectoryForEvaluation) and evaluates; errors name the files.
 EvaluationResult EvaluateTrajectoryFiles(const std::string& gt_path, const std::string& est_path,

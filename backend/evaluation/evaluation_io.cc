@@ -68,6 +68,11 @@ Trajectory ReadTumTrajectoryForEvaluation(const std::string& path,
   RequireFile(path, "trajectory file");
   std::ifstream in(path);
   if (!in) throw DataError("cannot open trajectory file " + path);
+  return ParseTumTrajectoryForEvaluation(in, path, warnings);
+}
+
+Trajectory ParseTumTrajectoryForEvaluation(std::istream& in, const std::string& path,
+                                           std::vector<std::string>* warnings) {
   Trajectory trajectory;
   std::string line;
   int line_number = 0;
@@ -99,6 +104,13 @@ Trajectory ReadTumTrajectoryForEvaluation(const std::string& path,
                         "evaluate_ate.py / evaluate_rpe.py do");
   }
   return unique;
+}
+
+Trajectory AsReadBackFromTum(const Trajectory& trajectory, const std::string& name) {
+  std::ostringstream text;
+  for (const TimedPose& pose : trajectory) text << FormatTumLine(pose) << "\n";
+  std::istringstream in(text.str());
+  return ParseTumTrajectoryForEvaluation(in, name);
 }
 
 std::string FormatEvaluation(const EvaluationResult& result) {

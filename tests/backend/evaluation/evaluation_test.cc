@@ -349,3 +349,33 @@ TEST(EvaluationTest, MissingFileIsADataErrorNamingIt) {
 
 }  // namespace
 }  // namespace ieslam
+
+namespace ieslam {
+namespace {
+
+// A trajectory read back in memory is the one `ieslam evaluate` reads from its file.
+TEST(EvaluationTest, ReadBackInMemoryEqualsReadingTheWrittenFile) {
+  Trajectory trajectory;
+  for (int i = 0; i < 5; ++i) {
+    TimedPose pose;
+    pose.timestamp = 1305031102.175304 + 0.0333333333 * i;
+    pose.T_w_c = Eigen::AngleAxisd(0.1234567891 * i, Eigen::Vector3d(1, 2, 3).normalized());
+    pose.T_w_c.translation() = Eigen::Vector3d(0.1234567891234, -2.0 / 3.0, 1e-7 * i);
+    trajectory.push_back(pose);
+  }
+  const std::string path = ::testing::TempDir() + "/ieslam_read_back.tum";
+  WriteTumTrajectory(path, trajectory, "comment");
+  const Trajectory from_file = ReadTumTrajectoryForEvaluation(path);
+  const Trajectory in_memory = AsReadBackFromTum(trajectory, "trajectory");
+  ASSERT_EQ(in_memory.size(), from_file.size());
+  for (size_t i = 0; i < in_memory.size(); ++i) {
+    EXPECT_EQ(in_memory[i].timestamp, from_file[i].timestamp);
+    EXPECT_EQ(in_memory[i].T_w_c.matrix(), from_file[i].T_w_c.matrix());
+    // The rounding is the file's: not the values given.
+    EXPECT_NE(in_memory[i].T_w_c.translation().x(), trajectory[i].T_w_c.translation().x());
+  }
+  std::remove(path.c_str());
+}
+
+}  // namespace
+}  // namespace ieslam
