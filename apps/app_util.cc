@@ -42,14 +42,21 @@ DatasetOptions DatasetOptionsFromFlags(const Flags& flags) {
   return options;
 }
 
-Json DatasetOptionsToJson(const DatasetOptions& options) {
-  return Json::Object()
-      .Set("format", options.format)
-      .Set("calib", options.calib_file)
-      .Set("first", options.first)
-      .Set("last", options.last)
-      .Set("stride", options.stride)
-      .Set("max_association_diff_s", options.max_association_diff_s);
+void PrintWarning(const std::string& command, const std::string& text) {
+  std::fprintf(stderr, "%s: warning: %s\n", command.c_str(), text.c_str());
+}
+
+void WarnAboutSkippedFrames(const std::string& command,
+                            const std::vector<std::pair<int, std::string>>& skipped) {
+  constexpr size_t kShown = 10;
+  for (size_t i = 0; i < skipped.size() && i < kShown; ++i) {
+    PrintWarning(command,
+                 "frame " + std::to_string(skipped[i].first) + " skipped: " + skipped[i].second);
+  }
+  if (skipped.size() > kShown) {
+    PrintWarning(command, std::to_string(skipped.size() - kShown) +
+                              " more frames skipped (report.json: frames_skipped)");
+  }
 }
 
 Progress::Progress(std::string label, int total, bool quiet)

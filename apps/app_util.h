@@ -3,11 +3,11 @@
 
 #include <chrono>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "apps/flags.h"
 #include "core/dataset.h"
-#include "core/json.h"
 
 namespace ieslam {
 
@@ -36,7 +36,11 @@ class Progress {
   std::chrono::steady_clock::time_point start_;
 };
 
-// The options of a dataset as written into reports.
-Json DatasetOptionsToJson(const DatasetOptions& options);
+// "<command>: warning: <text>" on stderr.
+void PrintWarning(const std::string& command, const std::string& text);
+// One warning per skipped frame (the first few; report.json lists them all), so that a bad
+// image in the middle of a long sequence is seen without reading the report.
+void WarnAboutSkippedFrames(const std::string& command,
+                            const std::vector<std::pair<int, std::string>>& skipped);
 
 }  // namespace ieslam

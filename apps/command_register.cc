@@ -7,6 +7,7 @@
 #include "apps/interrupt.h"
 #include "core/error.h"
 #include "core/file_util.h"
+#include "core/json.h"
 #include "frontend/pairwise_evaluation.h"
 
 namespace ieslam {

@@ -6,12 +6,15 @@
 #include "apps/commands.h"
 #include "apps/config_file.h"
 #include "apps/interrupt.h"
-#include "apps/run_pipeline.h"
 #include "core/error.h"
+#include "selection/pipeline/dataset_run.h"
+#include "selection/pipeline/run_outputs.h"
+#include "selection/pipeline/run_report.h"
 
 namespace ieslam {
+namespace {
 
-int RunCommand(const CommandArgs& args) {
+std::vector<FlagSpec> RunFlagSpecs() {
   std::vector<FlagSpec> specs = DatasetFlagSpecs();
   const std::vector<FlagSpec> more = {
       {"output", "OUT", "output directory (required)"},
@@ -25,6 +28,67 @@ int RunCommand(const CommandArgs& args) {
       {"quiet", "", "no progress output"},
       {"verbose", "", "also log every selector decision (candidates, gains, frames added)"}};
   specs.insert(specs.end(), more.begin(), more.end());
+  return specs;
+}
+
+RunOptions RunOptionsFromFlags(const Flags& flags) {
+  RunOptions options;
+  if (flags.Has("config")) ApplyConfigFile(flags.Require("config"), &options);
+  options.dataset = flags.Require("dataset");
+  options.dataset_options = DatasetOptionsFromFlags(flags);
+  SelectorOptions& selector = options.pipeline.selector;
+  const std::string kind = flags.GetString("selector", "info");
+  if (flags.Has("selector") && !ParseSelectorKind(kind, &selector.kind)) {
+    throw ConfigError("--selector must be info, all, interval or deadreckoning, got '" + kind +
+                      "'");
+  }
+  selector.buffer_size = flags.GetInt("buffer", selector.buffer_size, 1, 100);
+  selector.interval = flags.GetInt("interval", selector.interval, 1, 100000);
+  options.seed = static_cast<uint32_t>(flags.GetInt("seed", 1, 0, 2000000000));
+  options.threads = flags.GetInt("threads", 0, 0, 256);
+  options.pipeline.refine = flags.Has("refine");
+  std::string why;
+  if (!options.Check(&why)) throw ConfigError(why);
+  return options;
+}
+
+// One log line per selector decision, for --verbose; frames by their dataset index.
+std::string DescribeDecision(const SelectionDecision& d, const Dataset& dataset) {
+  std::string line = "run: " + d.reason + ": candidates";
+  char number[32];
+  const std::vector<int> candidates = SourceIndices(dataset, d.candidates);
+  for (size_t k = 0; k < candidates.size(); ++k) {
+    line += (k == 0 ? " " : ",") + std::to_string(candidates[k]);
+    if (k < d.gains.size()) {
+      std::snprintf(number, sizeof(number), " (gain %.1f, map %.1f)", d.gains[k], d.map_gains[k]);
+      line += number;
+    }
+  }
+  line += " -> added";
+  for (const int index : SourceIndices(dataset, d.added)) line += " " + std::to_string(index);
+  return line;
+}
+
+void PrintSummary(const Dataset& dataset, const RunOptions& options, const RunResult& run,
+                  const std::string& output) {
+  const PipelineResult& p = run.pipeline;
+  std::printf("run: %zu of %d frames selected, %zu skipped, state dimension %d\n",
+              p.selection.selected.size(), dataset.size(), run.frames_skipped.size(),
+              p.filter->state_dim());
+  if (run.ate_keyframes_m >= 0.0) {
+    std::printf("run: ATE RMSE keyframes %.4f m, all frames %.4f m\n", run.ate_keyframes_m,
+                run.ate_trajectory_m);
+    if (options.pipeline.refine) {
+      std::printf("run: ATE RMSE refined keyframes %.4f m\n", run.ate_refined_m);
+    }
+  }
+  std::printf("run: results in %s\n", output.c_str());
+}
+
+}  // namespace
+
+int RunCommand(const CommandArgs& args) {
+  const std::vector<FlagSpec> specs = RunFlagSpecs();
   const Flags flags(args, specs);
   if (flags.help()) {
     std::cout << FormatHelp("run", "--dataset DIR --output OUT [flags]",
@@ -34,44 +98,37 @@ int RunCommand(const CommandArgs& args) {
                             specs);
     return 0;
   }
-  RunOptions options;
-  if (flags.Has("config")) ApplyConfigFile(flags.Require("config"), &options);
-  options.dataset = flags.Require("dataset");
-  options.output = flags.Require("output");
-  options.dataset_options = DatasetOptionsFromFlags(flags);
-  const std::string selector = flags.GetString("selector", "info");
-  if (flags.Has("selector") && !ParseSelectorKind(selector, &options.selector.kind)) {
-    throw ConfigError("--selector must be info, all, interval or deadreckoning, got '" + selector +
-                      "'");
+  const std::string output = flags.Require("output");
+  const bool quiet = flags.Has("quiet"), verbose = flags.Has("verbose");
+  if (quiet && verbose) throw ConfigError("--quiet and --verbose exclude each other");
+  const RunOptions options = RunOptionsFromFlags(flags);
+  const auto dataset = OpenDataset(options.dataset, options.dataset_options);
+  PrepareOutputDirectory(output);
+  Progress progress("run", dataset->size(), quiet);
+  PipelineHooks hooks;
+  hooks.progress = [&progress](int done, int selected) {
+    progress.Update(done, std::to_string(selected) + " selected");
+  };
+  if (verbose) {
+    hooks.on_decision = [&dataset](const SelectionDecision& d) {
+      std::fprintf(stderr, "%s\n", DescribeDecision(d, *dataset).c_str());
+    };
   }
-  options.selector.buffer_size = flags.GetInt("buffer", options.selector.buffer_size, 1, 100);
-  options.selector.interval = flags.GetInt("interval", options.selector.interval, 1, 100000);
-  options.seed = static_cast<uint32_t>(flags.GetInt("seed", 1, 0, 2000000000));
-  options.threads = flags.GetInt("threads", 0, 0, 256);
-  options.quiet = flags.Has("quiet");
-  options.verbose = flags.Has("verbose");
-  if (options.quiet && options.verbose)
-    throw ConfigError("--quiet and --verbose exclude each other");
-  options.refine = flags.Has("refine");
-  RunSummary summary;
+  RunResult run;
   {
     // The run stops at the next frame boundary and still writes its outputs.
     const StopOnInterrupt interrupt;
-    summary = RunPipeline(options, interrupt.Poll());
+    hooks.stop = interrupt.Poll();
+    run = RunOnDataset(*dataset, options, hooks);
+    progress.Finish();
+    WarnAboutSkippedFrames("run", run.frames_skipped);
+    for (const std::string& warning : run.warnings) PrintWarning("run", warning);
+    WriteRunOutputs(output, *dataset, options, run);
   }
-  std::printf("run: %d of %d frames selected, %zu skipped, state dimension %d\n",
-              summary.frames_selected, summary.frames_total, summary.frames_skipped.size(),
-              summary.state_dim);
-  if (summary.ate_keyframes_m >= 0.0) {
-    std::printf("run: ATE RMSE keyframes %.4f m, all frames %.4f m\n", summary.ate_keyframes_m,
-                summary.ate_trajectory_m);
-    if (options.refine)
-      std::printf("run: ATE RMSE refined keyframes %.4f m\n", summary.ate_refined_m);
-  }
-  std::printf("run: results in %s\n", options.output.c_str());
-  if (summary.interrupted) {
+  PrintSummary(*dataset, options, run, output);
+  if (run.interrupted()) {
     std::fprintf(stderr, "run: interrupted after %d of %d frames; outputs cover those frames\n",
-                 summary.frames_processed, summary.frames_total);
+                 run.frames_processed(), dataset->size());
     return 130;
   }
   return 0;

@@ -4,16 +4,16 @@ namespace ieslam {
 
 const std::vector<Command>& Commands() {
   static const std::vector<Command> commands = {
-      {"run", "dataset -> features -> keyframe selection -> EIF (-> bundle adjustment)", RunCommand,
-       ""},
-      {"refine", "bundle-adjust an earlier run's keyframes again (batch refinement)", RefineCommand,
-       ""},
-      {"evaluate", "TUM-compatible ATE / RPE of a trajectory against ground truth", EvaluateCommand,
-       ""},
-      {"simulate", "the paper's simulation: Table I and filter consistency", SimulateCommand, ""},
-      {"synth", "write a synthetic RGB-D dataset with exact ground truth", SynthCommand, ""},
-      {"register", "register frame i to i+K across a dataset against ground truth", RegisterCommand,
-       ""},
+      {"run", "dataset -> features -> keyframe selection -> EIF (-> bundle adjustment)",
+       RunCommand},
+      {"refine", "bundle-adjust an earlier run's keyframes again (batch refinement)",
+       RefineCommand},
+      {"evaluate", "TUM-compatible ATE / RPE of a trajectory against ground truth",
+       EvaluateCommand},
+      {"simulate", "the paper's simulation: Table I and filter consistency", SimulateCommand},
+      {"synth", "write a synthetic RGB-D dataset with exact ground truth", SynthCommand},
+      {"register", "register frame i to i+K across a dataset against ground truth",
+       RegisterCommand},
   };
   return commands;
 }

@@ -1,6 +1,6 @@
 // The subcommands of `ieslam`. Each takes the arguments after its name and returns the
 // process exit code; ConfigError and DataError propagate to main, which maps them to
-// exit codes 2 and 3 (../shared/CLI.md).
+// exit codes 2 and 3.
 #pragma once
 
 #include <string>
@@ -13,12 +13,10 @@ using CommandArgs = std::vector<std::string>;
 struct Command {
   const char* name;
   const char* summary;
-  int (*run)(const CommandArgs& args);  // nullptr: not built yet
-  const char* status;                   // for commands not built yet: where the work stands
+  int (*run)(const CommandArgs& args);
 };
 
-// Every subcommand of ../shared/CLI.md, and `refine` (batch refinement of an earlier run),
-// in the order `ieslam --help` lists them.
+// Every subcommand, in the order `ieslam --help` lists them.
 const std::vector<Command>& Commands();
 
 int EvaluateCommand(const CommandArgs& args);

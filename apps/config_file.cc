@@ -127,24 +127,24 @@ void ApplyConfigFile(const std::string& path, RunOptions* o) {
        }},
       {"selector",
        [&](Section* x) {
-         std::string kind = SelectorKindName(o->selector.kind);
+         std::string kind = SelectorKindName(o->pipeline.selector.kind);
          x->String("kind", &kind);
-         if (!ParseSelectorKind(kind, &o->selector.kind)) {
+         if (!ParseSelectorKind(kind, &o->pipeline.selector.kind)) {
            throw ConfigError(path + ": selector.kind must be info, all, interval or deadreckoning");
          }
-         x->Int("buffer", &o->selector.buffer_size);
-         x->Int("interval", &o->selector.interval);
-         x->Int("min_common_features", &o->selector.min_common_features);
-         x->Double("map_gain_threshold", &o->selector.map_gain_threshold);
-         x->Int("max_recovery_frames", &o->selector.max_recovery_frames);
-         x->Double("min_view_change_deg", &o->selector.min_view_change_deg);
+         x->Int("buffer", &o->pipeline.selector.buffer_size);
+         x->Int("interval", &o->pipeline.selector.interval);
+         x->Int("min_common_features", &o->pipeline.selector.min_common_features);
+         x->Double("map_gain_threshold", &o->pipeline.selector.map_gain_threshold);
+         x->Int("max_recovery_frames", &o->pipeline.selector.max_recovery_frames);
+         x->Double("min_view_change_deg", &o->pipeline.selector.min_view_change_deg);
        }},
       {"filter",
        [&](Section* x) {
-         x->Double("anchor_information", &o->filter.anchor_information);
-         x->Bool("iterative_recovery", &o->filter.iterative_recovery);
-         x->Double("cg_tolerance", &o->filter.cg_tolerance);
-         x->Int("max_dense_pose_dim", &o->filter.max_dense_pose_dim);
+         x->Double("anchor_information", &o->pipeline.filter.anchor_information);
+         x->Bool("iterative_recovery", &o->pipeline.filter.iterative_recovery);
+         x->Double("cg_tolerance", &o->pipeline.filter.cg_tolerance);
+         x->Int("max_dense_pose_dim", &o->pipeline.filter.max_dense_pose_dim);
        }},
       {"map",
        [&](Section* x) {
@@ -153,19 +153,19 @@ void ApplyConfigFile(const std::string& path, RunOptions* o) {
        }},
       {"ba",
        [&](Section* x) {
-         std::string loss = BaRobustLossName(o->ba.robust_loss);
+         std::string loss = BaRobustLossName(o->pipeline.ba.robust_loss);
          x->String("robust_loss", &loss);
-         if (!ParseBaRobustLoss(loss, &o->ba.robust_loss)) {
+         if (!ParseBaRobustLoss(loss, &o->pipeline.ba.robust_loss)) {
            throw ConfigError(path + ": ba.robust_loss must be none or huber, got '" + loss + "'");
          }
-         x->Double("huber_scale", &o->ba.huber_scale);
-         x->Double("rejection_chi2", &o->ba.rejection_chi2);
-         x->Int("max_rejection_rounds", &o->ba.max_rejection_rounds);
-         x->Int("max_iterations", &o->ba.max_iterations);
+         x->Double("huber_scale", &o->pipeline.ba.huber_scale);
+         x->Double("rejection_chi2", &o->pipeline.ba.rejection_chi2);
+         x->Int("max_rejection_rounds", &o->pipeline.ba.max_rejection_rounds);
+         x->Int("max_iterations", &o->pipeline.ba.max_iterations);
        }},
       {"depth_alignment",
        [&](Section* x) {
-         DepthAlignmentOptions& d = o->depth_alignment;
+         DepthAlignmentOptions& d = o->pipeline.depth_alignment;
          x->Int("rounds", &d.rounds);
          x->Int("grid_step", &o->range_cloud.step);
          x->Int("sample_step", &d.sample_step);
@@ -190,9 +190,9 @@ void ApplyConfigFile(const std::string& path, RunOptions* o) {
     section.RejectUnknown();
   }
   std::string why;
-  if (!o->source.Check(&why) || !o->selector.Check(&why) || !o->filter.Check(&why) ||
-      !o->map.Check(&why) || !o->ba.Check(&why) || !o->range_cloud.Check(&why) ||
-      !o->depth_alignment.Check(&why)) {
+  if (!o->source.Check(&why) || !o->pipeline.selector.Check(&why) ||
+      !o->pipeline.filter.Check(&why) || !o->map.Check(&why) || !o->pipeline.ba.Check(&why) ||
+      !o->range_cloud.Check(&why) || !o->pipeline.depth_alignment.Check(&why)) {
     throw ConfigError(path + ": " + why);
   }
 }

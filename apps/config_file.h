@@ -13,7 +13,7 @@
 
 #include <string>
 
-#include "apps/run_pipeline.h"
+#include "selection/pipeline/dataset_run.h"
 
 namespace ieslam {
 

@@ -1,4 +1,4 @@
-// ieslam: one binary, one subcommand per job (../shared/CLI.md is the interface).
+// ieslam: one binary, one subcommand per job.
 #include <malloc.h>
 
 #include <exception>
@@ -8,6 +8,7 @@
 #include "apps/commands.h"
 #include "apps/interrupt.h"
 #include "core/error.h"
+#include "core/version.h"
 
 namespace ieslam {
 namespace {
@@ -19,9 +20,7 @@ void PrintUsage(std::ostream& out) {
   for (const Command& command : Commands()) {
     std::string name = command.name;
     name.resize(10, ' ');
-    out << "  " << name << command.summary;
-    if (command.run == nullptr) out << "  [not built yet: " << command.status << "]";
-    out << "\n";
+    out << "  " << name << command.summary << "\n";
   }
   out << "\nExit codes: 0 success, 2 bad usage or config, 3 bad input data, 130 interrupted.\n";
 }
@@ -37,15 +36,11 @@ int Main(int argc, char** argv) {
     return 0;
   }
   if (name == "--version") {
-    std::cout << "ieslam " << IESLAM_VERSION << "\n";
+    std::cout << "ieslam " << IeslamVersion() << "\n";
     return 0;
   }
   for (const Command& command : Commands()) {
     if (name != command.name) continue;
-    if (command.run == nullptr) {
-      std::cerr << "ieslam " << name << ": not built yet (" << command.status << ")\n";
-      return 2;
-    }
     try {
       ExitOnInterrupt();
       return command.run(CommandArgs(argv + 2, argv + argc));
@@ -66,11 +61,9 @@ int Main(int argc, char** argv) {
 }  // namespace ieslam
 
 int main(int argc, char** argv) {
-  // glibc's allocator gave SIFT's scale-space buffers (1-5 MB each, several per frame) back
-  // to the kernel after every frame, unmapping them or trimming the heap, and took them again
-  // page by page: on 7scenes-dev (500 frames) 1.7 M page faults and ~5 s of system time, a
-  // fifth of the run's CPU. Served from the heap and kept there: 62 k faults, 0.3 s of system
-  // time, 40 MB more peak memory. (32 MB is the largest mmap threshold glibc accepts.)
+  // SIFT's scale-space buffers (megabytes each, several per frame) are kept on the heap
+  // instead of being returned to the kernel after every frame and faulted in again page by
+  // page (docs/performance.md). 32 MB is the largest mmap threshold glibc accepts.
   mallopt(M_MMAP_THRESHOLD, 32 << 20);
   mallopt(M_TRIM_THRESHOLD, 512 << 20);
   try {

@@ -14,27 +14,11 @@
 
 #include <Eigen/Core>
 
+#include "backend/slam_estimate.h"
 #include "core/json.h"
 #include "core/pose.h"
 
 namespace ieslam {
-
-class InformationFilter;
-struct BundleAdjustmentResult;
-
-// What one estimator says about the poses (paper 6-vector, camera-to-world) and features.
-struct SlamEstimate {
-  std::map<int, Vector6d> poses;
-  // Over the Euler 6-vector, as InformationFilter::PoseCovariance; may be empty.
-  std::map<int, Matrix6d> pose_covariances;
-  std::map<int64_t, Eigen::Vector3d> features;
-};
-
-// The filter's estimate; its pose covariances when `with_covariances` (one marginal
-// recovery per pose).
-SlamEstimate FilterEstimate(const InformationFilter& filter, bool with_covariances = true);
-// The bundle adjustment's estimate, with its Euler-tangent covariances when it computed them.
-SlamEstimate SmootherEstimate(const BundleAdjustmentResult& result);
 
 struct FramePoseComparison {
   int frame_id = -1;

@@ -10,6 +10,8 @@
 #include <sstream>
 #include <string>
 
+#include "test_files.h"
+
 namespace ieslam {
 namespace testing_apps {
 
@@ -33,13 +35,7 @@ inline CommandResult RunIeslam(const std::string& args) {
   return result;
 }
 
-// The whole file, bytes as they are ("" when it cannot be read).
-inline std::string ReadFile(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+using testing_files::ReadFile;
 
 }  // namespace testing_apps
 }  // namespace ieslam

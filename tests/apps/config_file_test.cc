@@ -42,15 +42,15 @@ TEST(ConfigFileTest, ValuesOverrideDefaults) {
                             "registration: { inlier_chi2: 11.34, use_point_covariances: 1 }\n"
                             "filter: { iterative_recovery: 0, max_dense_pose_dim: 0 }\n"),
                   &options);
-  EXPECT_EQ(options.selector.kind, SelectorKind::kAll);
-  EXPECT_EQ(options.selector.buffer_size, 5);
+  EXPECT_EQ(options.pipeline.selector.kind, SelectorKind::kAll);
+  EXPECT_EQ(options.pipeline.selector.buffer_size, 5);
   EXPECT_EQ(options.source.frontend.features.image_scale, 1.0);
   EXPECT_EQ(options.source.frontend.features.max_features, FeatureOptions().max_features);
   EXPECT_EQ(options.source.frontend.registration.inlier_chi2, 11.34);
   EXPECT_TRUE(options.source.frontend.registration.use_point_covariances);
-  EXPECT_FALSE(options.filter.iterative_recovery);
-  EXPECT_EQ(options.filter.max_dense_pose_dim, 0);
-  EXPECT_EQ(options.filter.cg_tolerance, InformationFilterOptions().cg_tolerance);
+  EXPECT_FALSE(options.pipeline.filter.iterative_recovery);
+  EXPECT_EQ(options.pipeline.filter.max_dense_pose_dim, 0);
+  EXPECT_EQ(options.pipeline.filter.cg_tolerance, InformationFilterOptions().cg_tolerance);
   // The report shows the filter options used.
   const std::string json = options.ToJson().Dump();
   EXPECT_NE(json.find("\"iterative_recovery\": false"), std::string::npos) << json;

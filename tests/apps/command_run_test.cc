@@ -1,11 +1,9 @@
-// `ieslam run` end to end on a small synthetic sequence with exact ground truth.
-#include "apps/run_pipeline.h"
-
+// `ieslam run` and `ieslam refine` as a user runs them, on a small synthetic sequence with
+// exact ground truth.
 #include <cstdlib>
 #include <filesystem>
-#include <fstream>
 #include <regex>
-#include <sstream>
+#include <string>
 
 #include <csignal>
 
@@ -16,7 +14,6 @@
 
 #include "backend/evaluation/evaluation.h"
 #include "command_test_util.h"
-#include "core/error.h"
 #include "frontend/simulation/synthetic_dataset.h"
 
 namespace ieslam {
@@ -25,57 +22,19 @@ namespace {
 namespace fs = std::filesystem;
 using testing_apps::ReadFile;
 
-class RunPipelineTest : public ::testing::Test {
+class CommandRunTest : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    root_ = fs::temp_directory_path() / ("ieslam_run_pipeline_test_" + std::to_string(::getpid()));
+    root_ = fs::temp_directory_path() / ("ieslam_command_run_test_" + std::to_string(::getpid()));
     SyntheticDatasetOptions options;
     options.frames = 36;
     options.frames_per_loop = 300;  // hand-held motion: ~2 cm and ~1.5 deg per frame
     WriteSyntheticDataset((root_ / "synthetic").string(), options);
   }
   static void TearDownTestSuite() { fs::remove_all(root_); }
-
-  static RunOptions Options(const std::string& output) {
-    RunOptions options;
-    options.dataset = (root_ / "synthetic").string();
-    options.output = (root_ / output).string();
-    options.threads = 1;
-    options.quiet = true;
-    return options;
-  }
   static fs::path root_;
 };
-fs::path RunPipelineTest::root_;
-
-TEST_F(RunPipelineTest, WritesEveryOutputAndTracksTheSyntheticSequence) {
-  const RunSummary summary = RunPipeline(Options("out"));
-  const fs::path out = root_ / "out";
-  for (const char* file : {"keyframes.tum", "trajectory.tum", "groundtruth.tum", "map.ply",
-                           "selected_frames.txt", "report.json"}) {
-    EXPECT_TRUE(fs::is_regular_file(out / file)) << file;
-  }
-  EXPECT_EQ(summary.frames_total, 36);
-  EXPECT_LT(summary.frames_selected, 36);
-  EXPECT_TRUE(summary.frames_skipped.empty());
-  EXPECT_LT(summary.ate_trajectory_m, 0.02);
-  EXPECT_LT(summary.ate_keyframes_m, 0.02);
-  // The report's ATE is what `ieslam evaluate` computes from the written files.
-  const EvaluationResult evaluated = EvaluateTrajectoryFiles(
-      (out / "groundtruth.tum").string(), (out / "trajectory.tum").string(), EvaluationOptions());
-  EXPECT_EQ(evaluated.ate.translation.rmse, summary.ate_trajectory_m);
-  const std::string report = ReadFile(out / "report.json");
-  for (const char* key :
-       {"\"version\"", "\"dataset\"", "\"seed\"", "\"options\"", "\"frames_total\"",
-        "\"frames_selected\"", "\"frames_skipped\"", "\"state_dim\"", "\"poses\"", "\"features\"",
-        "\"interrupted\"", "\"seconds\"", "\"frontend\"", "\"selection\"", "\"filter\"",
-        "\"ate_rmse_m\"", "\"keyframes\"", "\"trajectory\""}) {
-    EXPECT_NE(report.find(key), std::string::npos) << key;
-  }
-  const std::string ply = ReadFile(out / "map.ply");
-  EXPECT_EQ(ply.rfind("ply\nformat binary_little_endian 1.0\n", 0), 0u);
-  EXPECT_NE(ply.find("element vertex "), std::string::npos);
-}
+fs::path CommandRunTest::root_;
 
 // Two runs of the command, as a user makes them (separate processes: CHOLMOD's METIS keeps
 // its random state across orderings within one process).
@@ -83,14 +42,19 @@ TEST_F(RunPipelineTest, WritesEveryOutputAndTracksTheSyntheticSequence) {
 // ba_problem.txt and dataset later gives the same refined.tum, byte for byte. Without the
 // dataset it is the bundle adjustment of the features alone, which the depth alignment
 // improves on.
-TEST_F(RunPipelineTest, RefineNowAndRefineLaterFromTheStoredProblemAgree) {
-  RunOptions options = Options("refined");
-  options.refine = true;
-  const RunSummary summary = RunPipeline(options);
+TEST_F(CommandRunTest, RefineNowAndRefineLaterFromTheStoredProblemAgree) {
   const fs::path out = root_ / "refined";
+  const testing_apps::CommandResult run =
+      testing_apps::RunIeslam("run --quiet --threads 1 --refine --dataset " +
+                              (root_ / "synthetic").string() + " --output " + out.string());
+  ASSERT_EQ(run.exit_code, 0) << run.output;
   ASSERT_TRUE(fs::is_regular_file(out / "ba_problem.txt"));
   ASSERT_TRUE(fs::is_regular_file(out / "refined.tum"));
-  EXPECT_LT(summary.ate_refined_m, 0.02);
+  const std::string gt = (out / "groundtruth.tum").string();
+  const double ate_refined =
+      EvaluateTrajectoryFiles(gt, (out / "refined.tum").string(), EvaluationOptions())
+          .ate.translation.rmse;
+  EXPECT_LT(ate_refined, 0.02);
   const std::string run_report = ReadFile(out / "report.json");
   EXPECT_NE(run_report.find("\"filter_vs_smoother\""), std::string::npos);
   std::smatch constraints;
@@ -109,11 +73,10 @@ TEST_F(RunPipelineTest, RefineNowAndRefineLaterFromTheStoredProblemAgree) {
   const testing_apps::CommandResult features_run = testing_apps::RunIeslam(
       "refine --run " + out.string() + " --output " + features_only.string());
   ASSERT_EQ(features_run.exit_code, 0) << features_run.output;
-  const std::string gt = (out / "groundtruth.tum").string();
   const double ate_features_only =
       EvaluateTrajectoryFiles(gt, (features_only / "refined.tum").string(), EvaluationOptions())
           .ate.translation.rmse;
-  EXPECT_LT(summary.ate_refined_m, ate_features_only);
+  EXPECT_LT(ate_refined, ate_features_only);
   // Started from the ground truth instead, the features-only adjustment starts elsewhere (the
   // features placed from exact poses but noisy measurements) and ends at the same optimum.
   const fs::path from_gt = root_ / "refined_from_gt";
@@ -164,7 +127,7 @@ TEST_F(RunPipelineTest, RefineNowAndRefineLaterFromTheStoredProblemAgree) {
   EXPECT_NE(missing.output.find("ba_problem.txt"), std::string::npos) << missing.output;
 }
 
-TEST_F(RunPipelineTest, SingleThreadRunsAreByteIdentical) {
+TEST_F(CommandRunTest, SingleThreadRunsAreByteIdentical) {
   const std::string dataset = (root_ / "synthetic").string();
   for (const char* out : {"a", "b"}) {
     const std::string command = std::string(IESLAM_BINARY) + " run --quiet --threads 1 --dataset " +
@@ -176,37 +139,16 @@ TEST_F(RunPipelineTest, SingleThreadRunsAreByteIdentical) {
   }
 }
 
-TEST_F(RunPipelineTest, MissingDatasetIsADataErrorNamingIt) {
-  RunOptions options = Options("missing");
-  options.dataset = (root_ / "no_such_dataset").string();
-  try {
-    RunPipeline(options);
-    FAIL() << "expected DataError";
-  } catch (const DataError& e) {
-    EXPECT_NE(std::string(e.what()).find("no_such_dataset"), std::string::npos);
-  }
+TEST_F(CommandRunTest, MissingDatasetIsADataErrorNamingIt) {
+  const testing_apps::CommandResult missing =
+      testing_apps::RunIeslam("run --dataset " + (root_ / "no_such_dataset").string() +
+                              " --output " + (root_ / "missing").string());
+  EXPECT_EQ(missing.exit_code, 3) << missing.output;
+  EXPECT_NE(missing.output.find("no_such_dataset"), std::string::npos) << missing.output;
+  EXPECT_FALSE(fs::exists(root_ / "missing"));
 }
 
-}  // namespace
-}  // namespace ieslam
-
-namespace ieslam {
-namespace {
-
-TEST_F(RunPipelineTest, StopRequestEndsTheRunAndStillWritesItsOutputs) {
-  int polls = 0;
-  const RunSummary summary = RunPipeline(Options("stopped"), [&polls] { return ++polls > 4; });
-  EXPECT_TRUE(summary.interrupted);
-  EXPECT_GT(summary.frames_processed, 1);
-  EXPECT_LT(summary.frames_processed, 36);
-  const std::string report = ReadFile(root_ / "stopped" / "report.json");
-  EXPECT_NE(report.find("\"interrupted\": true"), std::string::npos);
-  // Frames the run never reached are not reported as skipped.
-  EXPECT_TRUE(summary.frames_skipped.empty());
-  EXPECT_TRUE(fs::is_regular_file(root_ / "stopped" / "trajectory.tum"));
-}
-
-TEST_F(RunPipelineTest, SigintMakesTheCommandExit130WithItsOutputs) {
+TEST_F(CommandRunTest, SigintMakesTheCommandExit130WithItsOutputs) {
   const std::string out = (root_ / "sigint").string();
   const pid_t child = fork();
   ASSERT_GE(child, 0);
@@ -232,45 +174,6 @@ TEST_F(RunPipelineTest, SigintMakesTheCommandExit130WithItsOutputs) {
   for (const auto& entry : fs::directory_iterator(out)) {
     EXPECT_EQ(entry.path().string().find(".tmp."), std::string::npos) << entry.path();
   }
-}
-
-}  // namespace
-}  // namespace ieslam
-
-namespace ieslam {
-namespace {
-
-// The same sequence with frames [first, last) cut out: a jump the front end must recover from.
-void WriteWithGap(const fs::path& source, const fs::path& target, int first, int last) {
-  fs::create_directories(target);
-  fs::copy_file(source / "calib.yaml", target / "calib.yaml", fs::copy_options::overwrite_existing);
-  fs::copy_file(source / "groundtruth.txt", target / "groundtruth.txt",
-                fs::copy_options::overwrite_existing);
-  for (const char* list : {"rgb.txt", "depth.txt"}) {
-    std::ifstream in(source / list);
-    std::ofstream out(target / list);
-    std::string line;
-    int frame = 0;
-    while (std::getline(in, line)) {
-      if (line.empty() || line[0] == '#') continue;
-      std::istringstream fields(line);
-      std::string stamp, path;
-      fields >> stamp >> path;
-      if (frame < first || frame >= last) out << stamp << " " << (source / path).string() << "\n";
-      ++frame;
-    }
-  }
-}
-
-TEST_F(RunPipelineTest, AJumpInTheSequenceIsBridgedAndStaysInTheSameFrame) {
-  WriteWithGap(root_ / "synthetic", root_ / "gap", 12, 20);  // ~16 cm and ~12 deg in one step
-  RunOptions options = Options("gap_out");
-  options.dataset = (root_ / "gap").string();
-  const RunSummary summary = RunPipeline(options);
-  EXPECT_EQ(summary.frames_total, 28);
-  EXPECT_TRUE(summary.frames_skipped.empty());
-  // One rigid alignment fits the frames before and after the jump alike.
-  EXPECT_LT(summary.ate_trajectory_m, 0.02);
 }
 
 }  // namespace

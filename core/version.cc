@@ -1,0 +1,7 @@
+#include "core/version.h"
+
+namespace ieslam {
+
+const char* IeslamVersion() { return IESLAM_VERSION; }
+
+}  // namespace ieslam

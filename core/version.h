@@ -1,0 +1,8 @@
+// The project's version, as reports and `ieslam --version` give it.
+#pragma once
+
+namespace ieslam {
+
+const char* IeslamVersion();
+
+}  // namespace ieslam

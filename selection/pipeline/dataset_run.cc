@@ -1,0 +1,163 @@
+#include "selection/pipeline/dataset_run.h"
+
+#include <algorithm>
+#include <thread>
+
+#include <opencv2/core.hpp>
+
+#include "backend/evaluation/evaluation.h"
+#include "core/error.h"
+#include "core/stopwatch.h"
+#include "selection/pipeline/options_json.h"
+
+namespace ieslam {
+namespace {
+
+int Cores() { return std::max(1, static_cast<int>(std::thread::hardware_concurrency())); }
+
+// Threads that load and process frames ahead of the selector: none in the deterministic
+// single-thread mode, else one per core (the selector's own thread mostly waits for
+// processed frames, so it is not counted); more than a few only queue behind the selector.
+int PrefetchWorkers(int threads) {
+  if (threads == 1) return 0;
+  return std::clamp(threads > 0 ? threads : Cores(), 1, 3);
+}
+
+// ATE RMSE of `est` against `gt_read_back` (the ground truth as read back from its file) as
+// `ieslam evaluate` computes it from their files; -1 with a warning when it cannot be
+// computed (a run that lost track early still reports).
+double Ate(const Trajectory& gt_read_back, const Trajectory& est, const std::string& what,
+           std::vector<std::string>* warnings) {
+  try {
+    return ComputeAte(gt_read_back, AsReadBackFromTum(est, what), EvaluationOptions(),
+                      "groundtruth.tum", what)
+        .translation.rmse;
+  } catch (const DataError& e) {
+    warnings->push_back("no ATE for " + what + ": " + e.what());
+    return -1.0;
+  }
+}
+
+// Loads each of `frames` once, in the given order, into the dense map (at its pose in
+// `T_w_c`) and, when `clouds` is set, as a range cloud. A frame that cannot be loaded again,
+// or whose range image gives no cloud, is left out with a warning.
+void LoadSelectedFrames(const Dataset& dataset, const std::vector<int>& frames,
+                        const std::vector<std::optional<Eigen::Isometry3d>>& T_w_c,
+                        const RangeCloudOptions& cloud_options, DenseMap* map, RangeClouds* clouds,
+                        std::vector<std::string>* warnings) {
+  const std::string uses = map != nullptr && clouds != nullptr ? "the map and the depth alignment"
+                           : map != nullptr                    ? "the map"
+                                                               : "the depth alignment";
+  for (const int frame : frames) {
+    if (!T_w_c[frame]) continue;
+    const std::string name = "frame " + std::to_string(frame);
+    Frame loaded;
+    try {
+      loaded = dataset.Load(frame);
+    } catch (const DataError& e) {
+      warnings->push_back(name + " left out of " + uses + ": " + e.what());
+      if (clouds != nullptr) ++clouds->frames_left_out;
+      continue;
+    }
+    if (map != nullptr) map->AddFrame(loaded, dataset.rig(), *T_w_c[frame]);
+    if (clouds == nullptr) continue;
+    try {
+      clouds->clouds[frame] = MakeRangeCloud(loaded.depth, dataset.rig().range,
+                                             dataset.rig().T_colour_range, cloud_options, name);
+    } catch (const DataError& e) {
+      warnings->push_back(name + " left out of the depth alignment: " + e.what());
+      ++clouds->frames_left_out;
+    }
+  }
+}
+
+// The trajectories and skipped frames of the pipeline's result, with the dataset's stamps.
+void CollectTrajectories(const Dataset& dataset, RunResult* run) {
+  const PipelineResult& p = run->pipeline;
+  for (const int frame : p.selection.selected) {
+    if (p.T_w_c[frame]) run->keyframes.push_back({dataset.info(frame).timestamp, *p.T_w_c[frame]});
+  }
+  std::sort(run->keyframes.begin(), run->keyframes.end(),
+            [](const TimedPose& a, const TimedPose& b) { return a.timestamp < b.timestamp; });
+  for (int f = 0; f < p.selection.frames_processed; ++f) {
+    if (p.T_w_c[f]) {
+      run->trajectory.push_back({dataset.info(f).timestamp, *p.T_w_c[f]});
+    } else {
+      run->frames_skipped.emplace_back(dataset.info(f).source_index,
+                                       p.selection.frames[f].skip_reason);
+    }
+  }
+  for (const auto& [frame, T] : p.problem.T_w_c)
+    run->timestamps[frame] = dataset.info(frame).timestamp;
+  if (dataset.has_ground_truth()) run->ground_truth = dataset.GroundTruth();
+}
+
+}  // namespace
+
+bool RunOptions::Check(std::string* why) const {
+  if (dataset.empty()) {
+    if (why != nullptr) *why = "--dataset is required";
+    return false;
+  }
+  if (threads < 0) {
+    if (why != nullptr) *why = "--threads must be >= 0";
+    return false;
+  }
+  return dataset_options.Check(why) && source.Check(why) && pipeline.Check(why) && map.Check(why) &&
+         range_cloud.Check(why);
+}
+
+RunOptions RunOptions::Resolved() const {
+  RunOptions used = *this;
+  used.source.frontend.registration.seed = seed;
+  used.source.database.seed = seed;
+  used.source.prefetch.workers = PrefetchWorkers(threads);
+  if (threads > 0) used.pipeline.ba.num_threads = threads;
+  // Pairs align independently: any number of threads gives the same constraints.
+  used.pipeline.depth_alignment.num_threads = threads > 0 ? threads : Cores();
+  return used;
+}
+
+Json RunOptions::ToJson() const { return RunOptionsToJson(Resolved()); }
+
+RunResult RunOnDataset(const Dataset& dataset, const RunOptions& options,
+                       const PipelineHooks& hooks) {
+  std::string why;
+  if (!options.Check(&why)) throw ConfigError(why);
+  RunResult run;
+  run.started = std::chrono::steady_clock::now();
+  // OpenCV's TBB back end warns on stderr when asked for more threads than there are cores.
+  if (options.threads > 0) cv::setNumThreads(std::min(options.threads, Cores()));
+  const RunOptions used = options.Resolved();
+  RgbdFrameSource source(dataset, used.source);
+  if (used.build_map) run.map.emplace(used.map);
+  // With depth alignment, each selected frame is loaded once for both the map and its cloud.
+  bool map_built = false;
+  const RangeCloudLoader clouds = [&](const std::vector<int>& frames,
+                                      const std::vector<std::optional<Eigen::Isometry3d>>& T_w_c) {
+    RangeClouds loaded;
+    LoadSelectedFrames(dataset, frames, T_w_c, used.range_cloud, run.map ? &*run.map : nullptr,
+                       &loaded, &run.warnings);
+    map_built = true;
+    return loaded;
+  };
+  run.pipeline = RunPipeline(&source, dataset.rig().colour, used.pipeline, hooks, clouds);
+  run.frontend = source.timings();
+  CollectTrajectories(dataset, &run);
+  if (run.map && !map_built) {
+    LoadSelectedFrames(dataset, run.pipeline.selection.selected, run.pipeline.T_w_c,
+                       used.range_cloud, &*run.map, nullptr, &run.warnings);
+  }
+  if (dataset.has_ground_truth()) {
+    const Trajectory gt = AsReadBackFromTum(run.ground_truth, "groundtruth.tum");
+    run.ate_keyframes_m = Ate(gt, run.keyframes, "keyframes.tum", &run.warnings);
+    run.ate_trajectory_m = Ate(gt, run.trajectory, "trajectory.tum", &run.warnings);
+    if (run.pipeline.refinement) {
+      run.ate_refined_m = Ate(gt, RefinedTrajectory(*run.pipeline.refinement, run.timestamps),
+                              "refined.tum", &run.warnings);
+    }
+  }
+  return run;
+}
+
+}  // namespace ieslam

@@ -1,0 +1,74 @@
+// `ieslam run` as a library call: a dataset's frames through the image front end
+// (frontend/rgbd_frame_source.h) into the pipeline (selection/pipeline/pipeline.h), and what
+// a run reports beyond the estimate: the trajectories with the dataset's timestamps, the
+// skipped frames, the dense map, the ATE against the dataset's ground truth, the timings.
+// Nothing is written; selection/pipeline/run_outputs.h writes a run's files.
+#pragma once
+
+#include <chrono>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "core/dataset.h"
+#include "core/json.h"
+#include "core/range_cloud.h"
+#include "core/trajectory.h"
+#include "frontend/dense_map.h"
+#include "frontend/rgbd_frame_source.h"
+#include "selection/pipeline/pipeline.h"
+
+namespace ieslam {
+
+struct RunOptions {
+  std::string dataset;  // the directory, as the report names it
+  DatasetOptions dataset_options;
+  RgbdSourceOptions source;
+  PipelineOptions pipeline;
+  // With refine: the selected frames' range clouds, aligned in the refinement.
+  RangeCloudOptions range_cloud;
+  DenseMapOptions map;
+  bool build_map = true;
+  uint32_t seed = 1;  // RANSAC's and the base-frame database's
+  int threads = 0;    // 0: every core; 1: the deterministic single-thread mode
+
+  bool Check(std::string* why) const;
+  // The options as the run uses them: the seed in the front end's options, the thread count
+  // in every stage's (prefetch workers, bundle adjustment, alignment). Reports show these.
+  RunOptions Resolved() const;
+  Json ToJson() const;
+};
+
+struct RunResult {
+  PipelineResult pipeline;
+  SourceTimings frontend;
+  // Of the selected frames (in time order) and of every placed frame (in frame order), with
+  // the dataset's timestamps; the dataset's ground truth of the selected frames.
+  Trajectory keyframes;
+  Trajectory trajectory;
+  Trajectory ground_truth;
+  // The timestamp of every pose of the pipeline's problem.
+  std::map<int, double> timestamps;
+  // Frames looked at and not placed: (index in the dataset, reason).
+  std::vector<std::pair<int, std::string>> frames_skipped;
+  std::optional<DenseMap> map;  // with options.build_map
+  // ATE RMSE against the ground truth as `ieslam evaluate` computes it from the written
+  // files (the trajectories rounded as a TUM file holds them); < 0 where it cannot be
+  // computed (no ground truth, fewer than 3 poses associated).
+  double ate_keyframes_m = -1.0;
+  double ate_trajectory_m = -1.0;
+  double ate_refined_m = -1.0;
+  std::chrono::steady_clock::time_point started;
+  std::vector<std::string> warnings;  // things the user should hear about, one line each
+
+  int frames_processed() const { return pipeline.selection.frames_processed; }
+  bool interrupted() const { return pipeline.selection.interrupted; }
+};
+
+// Runs the whole job on `dataset` (opened with options.dataset_options). Throws ConfigError
+// for options failing Check(); DataError from the dataset propagates.
+RunResult RunOnDataset(const Dataset& dataset, const RunOptions& options,
+                       const PipelineHooks& hooks = {});
+
+}  // namespace ieslam

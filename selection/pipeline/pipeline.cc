@@ -1,0 +1,47 @@
+#include "selection/pipeline/pipeline.h"
+
+#include <chrono>
+
+#include "core/error.h"
+#include "core/stopwatch.h"
+
+namespace ieslam {
+
+bool PipelineOptions::Check(std::string* why) const {
+  if (refine && selector.kind == SelectorKind::kDeadReckoning) {
+    if (why != nullptr)
+      *why = "--refine needs a filter: not available with --selector deadreckoning";
+    return false;
+  }
+  return selector.Check(why) && filter.Check(why) && ba.Check(why) && depth_alignment.Check(why);
+}
+
+PipelineResult RunPipeline(FrameSource* source, const PinholeCamera& camera,
+                           const PipelineOptions& options, const PipelineHooks& hooks,
+                           const RangeCloudLoader& clouds) {
+  std::string why;
+  if (!options.Check(&why)) throw ConfigError(why);
+  PipelineResult result;
+  result.filter = std::make_unique<InformationFilter>(options.filter, camera);
+  result.selection =
+      KeyframeSelector(options.selector)
+          .Run(source, result.filter.get(), hooks.progress, hooks.stop, hooks.on_decision);
+  result.T_w_c = KeyframeSelector::FramePoses(result.selection, *result.filter);
+  const bool dead_reckoning = !result.selection.chained_T_w_c.empty();
+  if (dead_reckoning || result.filter->num_poses() == 0) return result;
+
+  result.has_estimate = true;
+  result.problem = MakeProblemFromFilter(*result.filter, result.selection.observations);
+  const auto covariance_start = std::chrono::steady_clock::now();
+  result.estimate = FilterEstimate(*result.filter);
+  result.covariance_seconds = SecondsSince(covariance_start);
+  if (!options.refine) return result;
+  RangeClouds loaded;
+  const bool align = clouds != nullptr && options.depth_alignment.rounds > 0;
+  if (align) loaded = clouds(result.selection.selected, result.T_w_c);
+  result.refinement = Refine(result.problem, camera, result.estimate, options.ba,
+                             options.depth_alignment, align ? &loaded : nullptr);
+  return result;
+}
+
+}  // namespace ieslam

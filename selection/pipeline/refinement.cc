@@ -1,0 +1,111 @@
+#include "selection/pipeline/refinement.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "core/stopwatch.h"
+
+namespace ieslam {
+namespace {
+
+// Keyed by component: u and v in pixels' sigmas, d in the range's.
+Json ResidualCheckToJson(const BundleAdjustmentResult::ResidualCheck& check) {
+  const auto by_component = [](const Eigen::Vector3d& v) {
+    return Json::Object().Set("u", v[0]).Set("v", v[1]).Set("d", v[2]);
+  };
+  return Json::Object()
+      .Set("observations", check.observations)
+      .Set("rms", by_component(check.rms))
+      .Set("robust_sigma", by_component(check.robust_sigma))
+      .Set("redundancy", check.redundancy)
+      .Set("expected_robust_sigma", std::sqrt(std::max(0.0, check.redundancy)));
+}
+
+Json SolverToJson(const BundleAdjustmentResult& r) {
+  return Json::Object()
+      .Set("initial_cost", r.initial_cost)
+      .Set("final_cost", r.final_cost)
+      .Set("iterations", r.iterations)
+      .Set("residuals", r.num_residuals)
+      .Set("rejected_observations", static_cast<int>(r.rejected.size()))
+      .Set("rejection_variance_factor", r.rejection_variance_factor)
+      .Set("residual_check", ResidualCheckToJson(r.residual_check))
+      .Set("termination", r.termination)
+      .Set("seconds", r.solve_time_s);
+}
+
+Json DepthAlignmentToJson(const Refinement& refinement) {
+  const DepthAlignmentStats& stats = refinement.depth_stats;
+  const FilterSmootherComparison& change = refinement.change_from_smoothed;
+  return Json::Object()
+      .Set("rounds", stats.rounds)
+      .Set("pairs_tried", stats.pairs_tried)
+      .Set("constraints", stats.constraints)
+      .Set("rejected_constraints", refinement.depth_aligned.rejected_relative_poses)
+      .Set("frames", refinement.depth_frames)
+      .Set("frames_left_out", refinement.depth_frames_left_out)
+      .Set("mean_overlap", stats.mean_overlap)
+      .Set("seconds_alignment", stats.seconds_alignment)
+      .Set("seconds_ba", stats.seconds_ba)
+      .Set("change_from_ba_translation_rmse_m", change.translation_m.rmse)
+      .Set("change_from_ba_rotation_rmse_deg", change.rotation_deg.rmse)
+      .Set("used", refinement.depth_alignment_used)
+      .Set("ba", SolverToJson(refinement.depth_aligned));
+}
+
+}  // namespace
+
+Refinement Refine(const BundleAdjustmentProblem& problem, const PinholeCamera& camera,
+                  const SlamEstimate& filter_estimate, const BundleAdjustmentOptions& ba,
+                  const DepthAlignmentOptions& depth, const RangeClouds* clouds) {
+  Refinement refinement;
+  const auto start = std::chrono::steady_clock::now();
+  refinement.smoothed = SolveBundleAdjustment(problem, camera, ba);
+  refinement.depth_alignment_tried = clouds != nullptr && depth.rounds > 0 &&
+                                     !clouds->clouds.empty() && refinement.smoothed.usable;
+  if (refinement.depth_alignment_tried) {
+    BundleAdjustmentProblem started = problem;
+    started.T_w_c = refinement.smoothed.T_w_c;
+    started.p_w = refinement.smoothed.p_w;
+    refinement.depth_aligned = SolveWithDepthAlignment(started, camera, clouds->clouds, ba, depth,
+                                                       &refinement.depth_stats);
+    refinement.depth_frames = static_cast<int>(clouds->clouds.size());
+    refinement.depth_frames_left_out = clouds->frames_left_out;
+    refinement.depth_alignment_used = refinement.depth_aligned.usable;
+    if (!refinement.depth_alignment_used) {
+      refinement.warnings.push_back("the depth-aligned refinement failed (" +
+                                    refinement.depth_aligned.termination +
+                                    "); refined.tum is the bundle adjustment of the features");
+    }
+  }
+  refinement.seconds = SecondsSince(start);
+  refinement.comparison =
+      CompareFilterToSmoother(filter_estimate, SmootherEstimate(refinement.smoothed));
+  if (refinement.depth_alignment_tried) {
+    refinement.change_from_smoothed = CompareFilterToSmoother(
+        SmootherEstimate(refinement.smoothed), SmootherEstimate(refinement.depth_aligned));
+  }
+  return refinement;
+}
+
+Trajectory RefinedTrajectory(const Refinement& refinement,
+                             const std::map<int, double>& timestamps) {
+  Trajectory trajectory;
+  for (const auto& [frame, T_w_c] : refinement.refined().T_w_c) {
+    trajectory.push_back({timestamps.at(frame), T_w_c});
+  }
+  std::sort(trajectory.begin(), trajectory.end(),
+            [](const TimedPose& a, const TimedPose& b) { return a.timestamp < b.timestamp; });
+  return trajectory;
+}
+
+Json RefinementToJson(const Refinement& refinement) {
+  Json json = ComparisonToJson(refinement.comparison, true);
+  json.Set("ba", SolverToJson(refinement.smoothed));
+  if (refinement.depth_alignment_tried)
+    json.Set("depth_alignment", DepthAlignmentToJson(refinement));
+  return json;
+}
+
+}  // namespace ieslam

@@ -1,0 +1,66 @@
+// The batch refinement of a filter's estimate: the bundle adjustment of its problem (the
+// smoother, the reference the filter is checked against) and, given range clouds of the
+// frames, the dense alignment of their surfaces on top of it (backend/depth_alignment.h).
+// `ieslam run --refine` and `ieslam refine` both refine through here.
+#pragma once
+
+#include <map>
+#include <string>
+#include <vector>
+
+#include "backend/bundle_adjustment.h"
+#include "backend/depth_alignment.h"
+#include "backend/evaluation/filter_smoother_comparison.h"
+#include "backend/slam_estimate.h"
+#include "core/camera.h"
+#include "core/json.h"
+#include "core/range_cloud.h"
+#include "core/trajectory.h"
+
+namespace ieslam {
+
+// The range clouds of a problem's frames (by frame id), and how many of its frames have none.
+struct RangeClouds {
+  std::map<int, RangeCloud> clouds;
+  int frames_left_out = 0;
+};
+
+struct Refinement {
+  BundleAdjustmentResult smoothed;  // the bundle adjustment of the features
+  // The filter's estimate against `smoothed`.
+  FilterSmootherComparison comparison;
+  // Tried when clouds were given, the depth options ask for rounds and `smoothed` is usable;
+  // used when that solve is usable too (else the refinement is `smoothed`, with a warning).
+  bool depth_alignment_tried = false;
+  bool depth_alignment_used = false;
+  BundleAdjustmentResult depth_aligned;
+  DepthAlignmentStats depth_stats;
+  int depth_frames = 0;  // frames with a cloud
+  int depth_frames_left_out = 0;
+  // Where depth_aligned differs from smoothed (when tried).
+  FilterSmootherComparison change_from_smoothed;
+  double seconds = 0.0;  // both solves
+  std::vector<std::string> warnings;
+
+  // The refined estimate: depth_aligned when used, else smoothed.
+  const BundleAdjustmentResult& refined() const {
+    return depth_alignment_used ? depth_aligned : smoothed;
+  }
+};
+
+// Bundle-adjusts `problem` (started from its poses and features) and compares the result with
+// `filter_estimate`; with `clouds` and depth.rounds > 0, goes on with the clouds' pairwise
+// alignments.
+Refinement Refine(const BundleAdjustmentProblem& problem, const PinholeCamera& camera,
+                  const SlamEstimate& filter_estimate, const BundleAdjustmentOptions& ba,
+                  const DepthAlignmentOptions& depth, const RangeClouds* clouds = nullptr);
+
+// The refined poses with their frames' timestamps (`timestamps` holds every frame's), in
+// time order.
+Trajectory RefinedTrajectory(const Refinement& refinement, const std::map<int, double>& timestamps);
+
+// A report's filter_vs_smoother: the comparison, the solver's summary as "ba" and, when tried,
+// "depth_alignment".
+Json RefinementToJson(const Refinement& refinement);
+
+}  // namespace ieslam

@@ -1,0 +1,96 @@
+#include "selection/pipeline/run_outputs.h"
+
+#include <algorithm>
+#include <cstdio>
+#include <set>
+#include <type_traits>
+#include <utility>
+#include <vector>
+
+#include "backend/ba_problem_io.h"
+#include "core/file_util.h"
+#include "core/stopwatch.h"
+#include "selection/pipeline/run_report.h"
+
+namespace ieslam {
+namespace {
+
+// The information matrix's nonzero pattern at the level of state blocks, in state order: a
+// line `blocks <kinds>` (one letter per block, P = pose, F = feature) and one line `i j` per
+// nonzero off-diagonal block (i < j): the paper's Fig. 8.
+void WriteInformationBlocks(const InformationFilter& filter, const std::string& path) {
+  std::vector<std::pair<int, char>> starts;  // state blocks in state order
+  for (int frame : filter.frame_ids()) {
+    starts.emplace_back(filter.StateIndex(VariableRef::Pose(frame)), 'P');
+  }
+  for (int64_t id : filter.feature_ids()) {
+    starts.emplace_back(filter.StateIndex(VariableRef::Feature(id)), 'F');
+  }
+  std::sort(starts.begin(), starts.end());
+  std::vector<int> block_of(filter.state_dim(), -1);
+  std::string kinds;
+  for (size_t b = 0; b < starts.size(); ++b) {
+    const int size = starts[b].second == 'P' ? 6 : 3;
+    for (int i = 0; i < size; ++i) block_of[starts[b].first + i] = static_cast<int>(b);
+    kinds += starts[b].second;
+  }
+  std::set<std::pair<int, int>> pairs;
+  const auto upper = filter.information_upper();
+  for (int col = 0; col < upper.outerSize(); ++col) {
+    for (std::decay_t<decltype(upper)>::InnerIterator it(upper, col); it; ++it) {
+      const int a = block_of[it.row()], b = block_of[col];
+      if (a != b && a >= 0 && b >= 0 && it.value() != 0.0) {
+        pairs.emplace(std::min(a, b), std::max(a, b));
+      }
+    }
+  }
+  WriteFileAtomically(path, [&](std::ostream& out) {
+    out << "# ieslam: nonzero blocks of the final information matrix, state order (P pose, F "
+           "feature)\n";
+    out << "blocks " << kinds << "\n";
+    for (const auto& [a, b] : pairs) out << a << ' ' << b << "\n";
+  });
+}
+
+std::string SelectedFramesText(const Dataset& dataset, const std::vector<int>& selected) {
+  std::string lines;
+  for (int frame : selected) {
+    char line[64];
+    std::snprintf(line, sizeof(line), "%d %.6f\n", dataset.info(frame).source_index,
+                  dataset.info(frame).timestamp);
+    lines += line;
+  }
+  return lines;
+}
+
+}  // namespace
+
+void WriteRunOutputs(const std::string& out, const Dataset& dataset, const RunOptions& options,
+                     const RunResult& run) {
+  const PipelineResult& p = run.pipeline;
+  WriteTumTrajectory(JoinPath(out, "keyframes.tum"), run.keyframes,
+                     "ieslam keyframes (filter estimate)");
+  WriteTumTrajectory(JoinPath(out, "trajectory.tum"), run.trajectory,
+                     "ieslam every processed frame");
+  WriteTextAtomically(JoinPath(out, "selected_frames.txt"),
+                      SelectedFramesText(dataset, p.selection.selected));
+  if (dataset.has_ground_truth()) {
+    WriteTumTrajectory(JoinPath(out, "groundtruth.tum"), run.ground_truth, "ground truth");
+  }
+  if (p.has_estimate) {
+    // So that `ieslam refine` can refine this run again later.
+    WriteBaProblem(JoinPath(out, "ba_problem.txt"),
+                   {p.problem, dataset.rig().colour, run.timestamps});
+    WriteInformationBlocks(*p.filter, JoinPath(out, "information_blocks.txt"));
+  }
+  if (p.refinement) {
+    WriteTumTrajectory(JoinPath(out, "refined.tum"),
+                       RefinedTrajectory(*p.refinement, run.timestamps),
+                       "ieslam bundle-adjusted keyframes");
+  }
+  if (run.map) run.map->WritePly(JoinPath(out, "map.ply"));
+  const Json report = RunReport(dataset, options, run, SecondsSince(run.started));
+  WriteTextAtomically(JoinPath(out, "report.json"), report.Dump() + "\n");
+}
+
+}  // namespace ieslam

@@ -1,0 +1,115 @@
+#include "selection/pipeline/run_report.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "core/version.h"
+
+namespace ieslam {
+namespace {
+
+// [{frame, timestamp, sigma: [x, y, z (m), alpha, beta, gamma (rad)]}] from the estimate's
+// pose covariances, in frame order: the paper's Figs. 3-4 and 12 with real data.
+Json PoseSigmasToJson(const SlamEstimate& estimate, const std::map<int, double>& timestamps) {
+  Json sigmas = Json::Array();
+  for (const auto& [frame, P] : estimate.pose_covariances) {
+    Json sigma = Json::Array();
+    for (int i = 0; i < 6; ++i) sigma.Push(std::sqrt(std::max(0.0, P(i, i))));
+    sigmas.Push(Json::Object()
+                    .Set("frame", frame)
+                    .Set("timestamp", timestamps.at(frame))
+                    .Set("sigma", sigma));
+  }
+  return sigmas;
+}
+
+Json DecisionsToJson(const Dataset& dataset, const std::vector<SelectionDecision>& decisions) {
+  Json json = Json::Array();
+  for (const SelectionDecision& d : decisions) {
+    json.Push(Json::Object()
+                  .Set("candidates", Json::ArrayOf(SourceIndices(dataset, d.candidates)))
+                  .Set("gains", Json::ArrayOf(d.gains))
+                  .Set("map_gains", Json::ArrayOf(d.map_gains))
+                  .Set("added", Json::ArrayOf(SourceIndices(dataset, d.added)))
+                  .Set("reason", d.reason));
+  }
+  return json;
+}
+
+Json SecondsToJson(const RunResult& run, bool refine, double total_seconds) {
+  const SourceTimings& t = run.frontend;
+  const SelectionResult& selection = run.pipeline.selection;
+  Json seconds = Json::Object()
+                     .Set("total", total_seconds)
+                     .Set("frontend", t.total())
+                     .Set("selection", std::max(0.0, selection.seconds_selection - t.caller()))
+                     .Set("filter", selection.seconds_filter)
+                     .Set("load", t.load_s)
+                     .Set("covariance", run.pipeline.covariance_seconds);
+  seconds["frontend_stages"]
+      .Set("load", t.load_s)
+      .Set("extract", t.extract_s)
+      .Set("lift", t.lift_s)
+      .Set("match", t.match_s)
+      .Set("ransac", t.ransac_s)
+      .Set("fetch_wall", t.fetch_wall_s);
+  if (refine) {
+    seconds.Set("ba", run.pipeline.refinement ? run.pipeline.refinement->seconds : 0.0);
+  }
+  return seconds;
+}
+
+// Only what could be computed; null when nothing could.
+Json AteToJson(const RunResult& run, bool refine) {
+  Json ate = Json::Object();
+  if (run.ate_keyframes_m >= 0.0) ate.Set("keyframes", run.ate_keyframes_m);
+  if (run.ate_trajectory_m >= 0.0) ate.Set("trajectory", run.ate_trajectory_m);
+  if (refine && run.ate_refined_m >= 0.0) ate.Set("refined", run.ate_refined_m);
+  return ate.empty() ? Json() : ate;
+}
+
+}  // namespace
+
+std::vector<int> SourceIndices(const Dataset& dataset, const std::vector<int>& frames) {
+  std::vector<int> indices;
+  for (const int frame : frames) indices.push_back(dataset.info(frame).source_index);
+  return indices;
+}
+
+Json RunReport(const Dataset& dataset, const RunOptions& options, const RunResult& run,
+               double total_seconds) {
+  const PipelineResult& p = run.pipeline;
+  const bool refine = options.pipeline.refine;
+  Json report = Json::Object();
+  report.Set("version", IeslamVersion())
+      .Set("dataset", options.dataset)
+      .Set("format", dataset.format())
+      .Set("calibration", dataset.calibration_path())
+      .Set("seed", static_cast<int64_t>(options.seed))
+      .Set("options", options.ToJson())
+      .Set("frames_total", dataset.size())
+      .Set("frames_selected", static_cast<int>(p.selection.selected.size()));
+  Json skipped = Json::Array();
+  for (const auto& [frame, reason] : run.frames_skipped) {
+    skipped.Push(Json::Object().Set("frame", frame).Set("reason", reason));
+  }
+  report.Set("frames_skipped", skipped)
+      .Set("state_dim", p.filter->state_dim())
+      .Set("poses", p.filter->num_poses())
+      .Set("features", p.filter->num_features())
+      .Set("interrupted", run.interrupted())
+      .Set("frames_processed", run.frames_processed());
+  report.Set("seconds", SecondsToJson(run, refine, total_seconds));
+  if (dataset.has_ground_truth()) {
+    const Json ate = AteToJson(run, refine);
+    if (ate.is_object()) report.Set("ate_rmse_m", ate);
+  }
+  if (refine) {
+    report.Set("filter_vs_smoother", p.refinement ? RefinementToJson(*p.refinement) : Json());
+  }
+  if (p.has_estimate) report.Set("keyframe_sigmas", PoseSigmasToJson(p.estimate, run.timestamps));
+  report.Set("decisions", DecisionsToJson(dataset, p.selection.decisions));
+  return report;
+}
+
+}  // namespace ieslam

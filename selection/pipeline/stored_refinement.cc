@@ -1,0 +1,168 @@
+#include "selection/pipeline/stored_refinement.h"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <functional>
+#include <utility>
+
+#include "backend/evaluation/evaluation.h"
+#include "core/error.h"
+#include "core/file_util.h"
+
+namespace ieslam {
+namespace {
+
+bool FileExists(const std::string& path) {
+  std::error_code ec;
+  return std::filesystem::is_regular_file(path, ec);
+}
+
+// The problem's initial values, which are the run's filter estimate.
+SlamEstimate InitialEstimate(const BundleAdjustmentProblem& problem) {
+  SlamEstimate estimate;
+  for (const auto& [frame, T_w_c] : problem.T_w_c) estimate.poses[frame] = IsometryToPose(T_w_c);
+  estimate.features = problem.p_w;
+  return estimate;
+}
+
+// The ground-truth pose of every frame of `stored`, matched by timestamp as `ieslam evaluate`
+// associates (within 0.02 s). DataError naming the frame and the file when one has none.
+std::map<int, Eigen::Isometry3d> GroundTruthPoses(const StoredBaProblem& stored,
+                                                  const std::string& gt_path) {
+  const Trajectory gt = ReadTumTrajectoryForEvaluation(gt_path);
+  std::vector<double> gt_stamps;
+  for (const TimedPose& pose : gt) gt_stamps.push_back(pose.timestamp);
+  // AssociateStamps takes stamps in time order.
+  std::vector<std::pair<double, int>> by_time;  // (timestamp, frame)
+  for (const auto& [frame, stamp] : stored.timestamps) by_time.emplace_back(stamp, frame);
+  std::sort(by_time.begin(), by_time.end());
+  std::vector<double> frame_stamps;
+  for (const auto& [stamp, frame] : by_time) frame_stamps.push_back(stamp);
+  std::map<int, Eigen::Isometry3d> poses;
+  for (const StampMatch& m : AssociateStamps(frame_stamps, gt_stamps, 0.0, 0.02)) {
+    poses[by_time[m.first_index].second] = gt[m.second_index].T_w_c;
+  }
+  for (const auto& [frame, stamp] : stored.timestamps) {
+    if (poses.count(frame) == 0) {
+      throw DataError("frame " + std::to_string(frame) + " (t = " + std::to_string(stamp) +
+                      " s) has no pose in " + gt_path +
+                      " within 0.02 s: --from-ground-truth needs one for every frame");
+    }
+  }
+  return poses;
+}
+
+// ATE RMSE against the ground-truth file of the estimate `est` gives (the file `name`, or a
+// trajectory as read back from it), as `ieslam evaluate` computes it from the files; -1 with
+// a warning when it cannot be computed.
+double AteAgainstFile(const std::string& gt_path, const std::function<Trajectory()>& est,
+                      const std::string& name, std::vector<std::string>* warnings) {
+  try {
+    return ComputeAte(ReadTumTrajectoryForEvaluation(gt_path), est(), EvaluationOptions(), gt_path,
+                      name)
+        .translation.rmse;
+  } catch (const DataError& e) {
+    warnings->push_back("no ATE for " + name + ": " + e.what());
+    return -1.0;
+  }
+}
+
+void CheckSameCamera(const Dataset& dataset, const PinholeCamera& b) {
+  const PinholeCamera& a = dataset.rig().colour;
+  if (a.width != b.width || a.height != b.height || std::abs(a.fx - b.fx) > 1e-6 ||
+      std::abs(a.fy - b.fy) > 1e-6 || std::abs(a.cx - b.cx) > 1e-6 ||
+      std::abs(a.cy - b.cy) > 1e-6) {
+    throw DataError(dataset.directory() + ": its colour camera (" + std::to_string(a.fx) + ", " +
+                    std::to_string(a.fy) + ", " + std::to_string(a.cx) + ", " +
+                    std::to_string(a.cy) + ") is not the run's (" + std::to_string(b.fx) + ", " +
+                    std::to_string(b.fy) + ", " + std::to_string(b.cx) + ", " +
+                    std::to_string(b.cy) + "): another calibration or dataset");
+  }
+}
+
+}  // namespace
+
+bool StoredRefinementOptions::Check(std::string* why) const {
+  return ba.Check(why) && depth_alignment.Check(why) && range_cloud.Check(why);
+}
+
+RangeClouds LoadRangeCloudsAtTimestamps(const Dataset& dataset, const StoredBaProblem& stored,
+                                        const RangeCloudOptions& options,
+                                        std::vector<std::string>* warnings) {
+  constexpr double kSameTimestampS = 1e-4;
+  CheckSameCamera(dataset, stored.camera);
+  RangeClouds loaded;
+  for (const auto& [frame, T_w_c] : stored.problem.T_w_c) {
+    const auto stamp = stored.timestamps.find(frame);
+    int index = -1;
+    if (stamp != stored.timestamps.end()) {
+      for (int i = 0; i < dataset.size() && index < 0; ++i) {
+        if (std::abs(dataset.info(i).timestamp - stamp->second) <= kSameTimestampS) index = i;
+      }
+    }
+    const std::string left_out =
+        "frame " + std::to_string(frame) + " left out of the depth alignment: ";
+    if (index < 0) {
+      warnings->push_back(left_out + "no frame of " + dataset.directory() + " at its timestamp");
+      ++loaded.frames_left_out;
+      continue;
+    }
+    try {
+      const Frame frame_data = dataset.Load(index);
+      loaded.clouds[frame] =
+          MakeRangeCloud(frame_data.depth, dataset.rig().range, dataset.rig().T_colour_range,
+                         options, "frame " + std::to_string(frame));
+    } catch (const DataError& e) {
+      warnings->push_back(left_out + e.what());
+      ++loaded.frames_left_out;
+    }
+  }
+  if (loaded.clouds.empty() && !stored.problem.T_w_c.empty()) {
+    throw DataError(dataset.directory() + ": none of the run's " +
+                    std::to_string(stored.problem.T_w_c.size()) +
+                    " selected frames found at their timestamps: not the run's dataset");
+  }
+  return loaded;
+}
+
+StoredRefinement RefineStoredRun(const std::string& run_dir, const Dataset* dataset,
+                                 const StoredRefinementOptions& options) {
+  std::string why;
+  if (!options.Check(&why)) throw ConfigError(why);
+  RequireDirectory(run_dir, "run directory");
+  StoredRefinement result;
+  result.stored = ReadBaProblem(JoinPath(run_dir, "ba_problem.txt"));
+  const StoredBaProblem& stored = result.stored;
+  RangeClouds clouds;
+  result.aligned_clouds = dataset != nullptr && options.depth_alignment.rounds > 0;
+  if (result.aligned_clouds) {
+    clouds = LoadRangeCloudsAtTimestamps(*dataset, stored, options.range_cloud, &result.warnings);
+  }
+  const std::string gt = JoinPath(run_dir, "groundtruth.tum");
+  const bool has_gt = FileExists(gt);
+  BundleAdjustmentProblem started = stored.problem;
+  if (options.from_ground_truth) {
+    if (!has_gt) throw DataError("--from-ground-truth: " + gt + " not found");
+    started = WithPoses(stored.problem, GroundTruthPoses(stored, gt), stored.camera);
+  }
+  // The filter-versus-smoother comparison is always against the run's own estimate.
+  result.refinement = Refine(started, stored.camera, InitialEstimate(stored.problem), options.ba,
+                             options.depth_alignment, &clouds);
+  for (const std::string& warning : result.refinement.warnings) result.warnings.push_back(warning);
+  result.refined = RefinedTrajectory(result.refinement, stored.timestamps);
+  if (has_gt) {
+    const std::string keyframes = JoinPath(run_dir, "keyframes.tum");
+    if (FileExists(keyframes)) {
+      result.ate_keyframes_m = AteAgainstFile(
+          gt, [&] { return ReadTumTrajectoryForEvaluation(keyframes); }, keyframes,
+          &result.warnings);
+    }
+    result.ate_refined_m = AteAgainstFile(
+        gt, [&] { return AsReadBackFromTum(result.refined, "refined.tum"); }, "refined.tum",
+        &result.warnings);
+  }
+  return result;
+}
+
+}  // namespace ieslam

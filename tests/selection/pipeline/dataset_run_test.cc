@@ -1,0 +1,196 @@
+// The whole run on a small synthetic sequence with exact ground truth, through the library:
+// results in memory, then the files.
+#include "selection/pipeline/dataset_run.h"
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+
+#include "backend/evaluation/evaluation.h"
+#include "core/error.h"
+#include "frontend/simulation/synthetic_dataset.h"
+#include "selection/pipeline/run_outputs.h"
+#include "test_files.h"
+
+namespace ieslam {
+namespace {
+
+namespace fs = std::filesystem;
+
+using testing_files::ReadFile;
+
+class DatasetRunTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    root_ = fs::temp_directory_path() / ("ieslam_dataset_run_test_" + std::to_string(::getpid()));
+    SyntheticDatasetOptions options;
+    options.frames = 36;
+    options.frames_per_loop = 300;  // hand-held motion: ~2 cm and ~1.5 deg per frame
+    WriteSyntheticDataset((root_ / "synthetic").string(), options);
+  }
+  static void TearDownTestSuite() { fs::remove_all(root_); }
+
+  static RunOptions Options(const std::string& dataset = "synthetic") {
+    RunOptions options;
+    options.dataset = (root_ / dataset).string();
+    options.threads = 1;
+    return options;
+  }
+  // Runs on the dataset and writes the outputs into root_/output.
+  static RunResult Run(const RunOptions& options, const std::string& output,
+                       const PipelineHooks& hooks = {}) {
+    const auto dataset = OpenDataset(options.dataset, options.dataset_options);
+    RunResult run = RunOnDataset(*dataset, options, hooks);
+    fs::create_directories(root_ / output);
+    WriteRunOutputs((root_ / output).string(), *dataset, options, run);
+    return run;
+  }
+  static fs::path root_;
+};
+fs::path DatasetRunTest::root_;
+
+TEST_F(DatasetRunTest, WritesEveryOutputAndTracksTheSyntheticSequence) {
+  const RunResult run = Run(Options(), "out");
+  const fs::path out = root_ / "out";
+  for (const char* file : {"keyframes.tum", "trajectory.tum", "groundtruth.tum", "map.ply",
+                           "selected_frames.txt", "report.json"}) {
+    EXPECT_TRUE(fs::is_regular_file(out / file)) << file;
+  }
+  EXPECT_EQ(OpenDataset(Options().dataset, DatasetOptions())->size(), 36);
+  EXPECT_LT(static_cast<int>(run.pipeline.selection.selected.size()), 36);
+  EXPECT_TRUE(run.frames_skipped.empty());
+  EXPECT_LT(run.ate_trajectory_m, 0.02);
+  EXPECT_LT(run.ate_keyframes_m, 0.02);
+  // The report's ATE is what `ieslam evaluate` computes from the written files.
+  const EvaluationResult evaluated = EvaluateTrajectoryFiles(
+      (out / "groundtruth.tum").string(), (out / "trajectory.tum").string(), EvaluationOptions());
+  EXPECT_EQ(evaluated.ate.translation.rmse, run.ate_trajectory_m);
+  const std::string report = ReadFile(out / "report.json");
+  for (const char* key :
+       {"\"version\"", "\"dataset\"", "\"seed\"", "\"options\"", "\"frames_total\"",
+        "\"frames_selected\"", "\"frames_skipped\"", "\"state_dim\"", "\"poses\"", "\"features\"",
+        "\"interrupted\"", "\"seconds\"", "\"frontend\"", "\"selection\"", "\"filter\"",
+        "\"ate_rmse_m\"", "\"keyframes\"", "\"trajectory\""}) {
+    EXPECT_NE(report.find(key), std::string::npos) << key;
+  }
+  const std::string ply = ReadFile(out / "map.ply");
+  EXPECT_EQ(ply.rfind("ply\nformat binary_little_endian 1.0\n", 0), 0u);
+  EXPECT_NE(ply.find("element vertex "), std::string::npos);
+}
+
+TEST_F(DatasetRunTest, StopRequestEndsTheRunAndStillWritesItsOutputs) {
+  int polls = 0;
+  PipelineHooks hooks;
+  hooks.stop = [&polls] { return ++polls > 4; };
+  const RunResult run = Run(Options(), "stopped", hooks);
+  EXPECT_TRUE(run.interrupted());
+  EXPECT_GT(run.frames_processed(), 1);
+  EXPECT_LT(run.frames_processed(), 36);
+  const std::string report = ReadFile(root_ / "stopped" / "report.json");
+  EXPECT_NE(report.find("\"interrupted\": true"), std::string::npos);
+  // Frames the run never reached are not reported as skipped.
+  EXPECT_TRUE(run.frames_skipped.empty());
+  EXPECT_TRUE(fs::is_regular_file(root_ / "stopped" / "trajectory.tum"));
+}
+
+// The same sequence with frames [first, last) cut out: a jump the front end must recover from.
+void WriteWithGap(const fs::path& source, const fs::path& target, int first, int last) {
+  fs::create_directories(target);
+  fs::copy_file(source / "calib.yaml", target / "calib.yaml", fs::copy_options::overwrite_existing);
+  fs::copy_file(source / "groundtruth.txt", target / "groundtruth.txt",
+                fs::copy_options::overwrite_existing);
+  for (const char* list : {"rgb.txt", "depth.txt"}) {
+    std::ifstream in(source / list);
+    std::ofstream out(target / list);
+    std::string line;
+    int frame = 0;
+    while (std::getline(in, line)) {
+      if (line.empty() || line[0] == '#') continue;
+      std::istringstream fields(line);
+      std::string stamp, path;
+      fields >> stamp >> path;
+      if (frame < first || frame >= last) out << stamp << " " << (source / path).string() << "\n";
+      ++frame;
+    }
+  }
+}
+
+TEST_F(DatasetRunTest, AJumpInTheSequenceIsBridgedAndStaysInTheSameFrame) {
+  WriteWithGap(root_ / "synthetic", root_ / "gap", 12, 20);  // ~16 cm and ~12 deg in one step
+  const RunResult run = Run(Options("gap"), "gap_out");
+  EXPECT_EQ(static_cast<int>(run.pipeline.T_w_c.size()), 28);
+  EXPECT_TRUE(run.frames_skipped.empty());
+  // One rigid alignment fits the frames before and after the jump alike.
+  EXPECT_LT(run.ate_trajectory_m, 0.02);
+}
+
+// Pipelining must not change the answer: with prefetching worker threads the run gives the
+// same trajectories as the sequential --threads 1 mode for the same seed.
+TEST_F(DatasetRunTest, ThreadedRunGivesTheSequentialTrajectory) {
+  Trajectory trajectory[2], keyframes[2];
+  const int threads[2] = {1, 3};
+  for (int k = 0; k < 2; ++k) {
+    RunOptions options = Options();
+    options.dataset_options.last = 19;
+    options.threads = threads[k];
+    options.seed = 7;
+    options.build_map = false;
+    const auto dataset = OpenDataset(options.dataset, options.dataset_options);
+    const RunResult run = RunOnDataset(*dataset, options);
+    trajectory[k] = run.trajectory;
+    keyframes[k] = run.keyframes;
+    EXPECT_EQ(run.frames_processed(), 20) << "threads " << threads[k];
+    EXPECT_LT(run.ate_trajectory_m, 0.02) << "threads " << threads[k];
+    EXPECT_FALSE(run.map.has_value());
+  }
+  EXPECT_GT(keyframes[0].size(), 1u);
+  ASSERT_EQ(trajectory[0].size(), 20u);
+  ASSERT_EQ(trajectory[1].size(), trajectory[0].size());
+  ASSERT_EQ(keyframes[1].size(), keyframes[0].size());
+  for (size_t i = 0; i < trajectory[0].size(); ++i) {
+    EXPECT_EQ(trajectory[0][i].timestamp, trajectory[1][i].timestamp);
+    EXPECT_EQ(trajectory[0][i].T_w_c.matrix(), trajectory[1][i].T_w_c.matrix()) << i;
+  }
+  for (size_t i = 0; i < keyframes[0].size(); ++i) {
+    EXPECT_EQ(keyframes[0][i].T_w_c.matrix(), keyframes[1][i].T_w_c.matrix()) << i;
+  }
+}
+
+// Everything the run reports is in the result: the estimate with a covariance per keyframe,
+// the refinement with --refine, each selected frame's cloud in the map once.
+TEST_F(DatasetRunTest, TheResultHoldsTheEstimateAndTheRefinement) {
+  RunOptions options = Options();
+  options.dataset_options.last = 15;
+  options.pipeline.refine = true;
+  const auto dataset = OpenDataset(options.dataset, options.dataset_options);
+  const RunResult run = RunOnDataset(*dataset, options);
+  const PipelineResult& p = run.pipeline;
+  ASSERT_TRUE(p.has_estimate);
+  EXPECT_EQ(p.estimate.poses.size(), p.selection.selected.size());
+  EXPECT_EQ(p.estimate.pose_covariances.size(), p.selection.selected.size());
+  EXPECT_EQ(static_cast<int>(p.estimate.features.size()), p.filter->num_features());
+  ASSERT_TRUE(p.refinement.has_value());
+  EXPECT_TRUE(p.refinement->smoothed.usable);
+  EXPECT_TRUE(p.refinement->depth_alignment_tried);
+  EXPECT_EQ(p.refinement->depth_frames, static_cast<int>(p.selection.selected.size()));
+  EXPECT_GE(run.ate_refined_m, 0.0);
+  EXPECT_LT(run.ate_refined_m, 0.02);
+  ASSERT_TRUE(run.map.has_value());
+  EXPECT_GT(run.map->size(), 1000u);
+  EXPECT_TRUE(run.warnings.empty());
+}
+
+TEST_F(DatasetRunTest, OptionsAreChecked) {
+  RunOptions options = Options();
+  options.pipeline.refine = true;
+  options.pipeline.selector.kind = SelectorKind::kDeadReckoning;
+  const auto dataset = OpenDataset(options.dataset, options.dataset_options);
+  EXPECT_THROW(RunOnDataset(*dataset, options), ConfigError);
+}
+
+}  // namespace
+}  // namespace ieslam

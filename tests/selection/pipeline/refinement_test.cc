@@ -1,0 +1,51 @@
+// The batch refinement of a filter's estimate on the paper's simulation.
+#include "selection/pipeline/refinement.h"
+
+#include <algorithm>
+
+#include <gtest/gtest.h>
+
+#include "frontend/simulation/known_association_source.h"
+#include "frontend/simulation/paper_simulation.h"
+#include "selection/pipeline/pipeline.h"
+
+namespace ieslam {
+namespace {
+
+TEST(RefinementTest, BundleAdjustsAndComparesWithTheFilter) {
+  SimulationOptions simulation;
+  simulation.trajectory.num_poses = 50;
+  simulation.trajectory.num_loops = 1;
+  const SimulatedDataset data = SimulatePaperScenario(simulation);
+  std::vector<double> timestamps(data.num_poses());
+  for (int k = 0; k < data.num_poses(); ++k) timestamps[k] = 100.0 - k;  // decreasing
+  KnownAssociationSource source(data.observations, timestamps, data.camera,
+                                PoseToIsometry(data.T_w_c_true[0]));
+  const PipelineResult filtered = RunPipeline(&source, data.camera, PipelineOptions());
+  const Refinement refinement = Refine(filtered.problem, data.camera, filtered.estimate,
+                                       BundleAdjustmentOptions(), DepthAlignmentOptions());
+  EXPECT_TRUE(refinement.smoothed.usable);
+  EXPECT_FALSE(refinement.depth_alignment_tried);
+  EXPECT_EQ(&refinement.refined(), &refinement.smoothed);
+  EXPECT_EQ(refinement.comparison.frames.size(), filtered.selection.selected.size());
+  EXPECT_GT(refinement.comparison.translation_m.rmse, 0.0);
+  EXPECT_LT(refinement.comparison.translation_m.rmse, 0.05);
+  EXPECT_TRUE(refinement.warnings.empty());
+  // In time order, with each frame's timestamp.
+  std::map<int, double> stamps;
+  for (const auto& [frame, T] : filtered.problem.T_w_c) stamps[frame] = timestamps[frame];
+  const Trajectory trajectory = RefinedTrajectory(refinement, stamps);
+  ASSERT_EQ(trajectory.size(), filtered.problem.T_w_c.size());
+  EXPECT_TRUE(std::is_sorted(
+      trajectory.begin(), trajectory.end(),
+      [](const TimedPose& a, const TimedPose& b) { return a.timestamp < b.timestamp; }));
+  EXPECT_EQ(trajectory.back().timestamp, 100.0);
+  EXPECT_EQ(trajectory.back().T_w_c.matrix(), refinement.smoothed.T_w_c.at(0).matrix());
+  const std::string json = RefinementToJson(refinement).Dump();
+  EXPECT_NE(json.find("\"ba\""), std::string::npos);
+  EXPECT_NE(json.find("\"residual_check\""), std::string::npos);
+  EXPECT_EQ(json.find("\"depth_alignment\""), std::string::npos);
+}
+
+}  // namespace
+}  // namespace ieslam

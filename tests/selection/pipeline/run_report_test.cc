@@ -1,0 +1,71 @@
+// report.json of a run on the 9 real frames of tum-fr1-desk-9.
+#include "selection/pipeline/run_report.h"
+
+#include <gtest/gtest.h>
+
+namespace ieslam {
+namespace {
+
+const std::string kDesk = std::string(IESLAM_SHARED_DATA_DIR) + "/tum-fr1-desk-9";
+
+bool Has(const std::string& text, const std::string& key) {
+  return text.find("\"" + key + "\"") != std::string::npos;
+}
+
+TEST(RunReportTest, HoldsWhatTheInterfacePromises) {
+  RunOptions options;
+  options.dataset = kDesk;
+  options.threads = 1;
+  options.pipeline.refine = true;
+  options.dataset_options.first = 1;  // frames named by their index in the dataset
+  const auto dataset = OpenDataset(options.dataset, options.dataset_options);
+  const RunResult run = RunOnDataset(*dataset, options);
+  const std::string report = RunReport(*dataset, options, run, 12.5).Dump();
+  for (const char* key : {"version",
+                          "dataset",
+                          "seed",
+                          "options",
+                          "frames_total",
+                          "frames_selected",
+                          "frames_skipped",
+                          "state_dim",
+                          "poses",
+                          "features",
+                          "interrupted",
+                          "seconds",
+                          "total",
+                          "frontend",
+                          "selection",
+                          "filter",
+                          "ba",
+                          "ate_rmse_m",
+                          "keyframes",
+                          "trajectory",
+                          "refined",
+                          "filter_vs_smoother",
+                          "keyframe_sigmas",
+                          "decisions"}) {
+    EXPECT_TRUE(Has(report, key)) << key;
+  }
+  EXPECT_NE(report.find("\"total\": 12.5"), std::string::npos);
+  EXPECT_NE(report.find("\"frames_total\": 8"), std::string::npos);
+  // The first decision adds the first frame, which is frame 1 of the dataset.
+  EXPECT_NE(report.find("\"added\": [1]"), std::string::npos) << report.substr(0, 400);
+  EXPECT_EQ(SourceIndices(*dataset, {0, 2}), (std::vector<int>{1, 3}));
+}
+
+TEST(RunReportTest, LeavesOutWhatWasNotDone) {
+  RunOptions options;
+  options.dataset = kDesk;
+  options.threads = 1;
+  options.build_map = false;
+  const auto dataset = OpenDataset(options.dataset, options.dataset_options);
+  const RunResult run = RunOnDataset(*dataset, options);
+  const std::string report = RunReport(*dataset, options, run, 1.0).Dump();
+  EXPECT_FALSE(Has(report, "refined"));
+  EXPECT_FALSE(Has(report, "filter_vs_smoother"));
+  EXPECT_TRUE(Has(report, "keyframe_sigmas"));
+}
+
+}  // namespace
+}  // namespace ieslam
