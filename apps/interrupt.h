@@ -1,5 +1,5 @@
 // Ctrl-C for every subcommand: exit code 130, and the outputs of what was processed still
-// written (../shared/CLI.md).
+// written.
 //
 // By default (ExitOnInterrupt, installed by main) SIGINT ends the process at once with exit
 // code 130: the command has nothing partial worth writing, and as outputs are written

@@ -13,7 +13,7 @@
 #   JOBS (parallel compile jobs if a build is needed, default 1: the machine is shared).
 #
 # End to end:
-#   register  `ieslam register --step 5` (and 20) with OpenCV on one thread: issue 4's
+#   register  `ieslam register --step 5` (and 20) with OpenCV on one thread: the front end's
 #             accuracy and front-end ms per frame
 #   run       `ieslam run` on 7scenes-dev, once --threads 1 (sequential) and once with the
 #             default threads (frames prefetched on a worker), each under /usr/bin/time -v

@@ -99,7 +99,7 @@ class Run {
   void AddFirst(int frame) {
     // Preparing counts as selection time for every frame, the first too: the front end's
     // share of it (loading, matching, RANSAC) is taken out of the report's figure as a
-    // whole (apps/run_pipeline.cc).
+    // whole.
     const auto prepare_start = Clock::now();
     const CandidateFrame c = source_->PrepareFirst(frame);
     result_->seconds_selection += SecondsSince(prepare_start);

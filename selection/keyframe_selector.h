@@ -47,16 +47,10 @@ struct SelectorOptions {
   double map_gain_threshold = 12.0;
   int max_recovery_frames = 60;  // dropped frames tried when a buffer cannot start
   // The view change, in degrees, a frame needs from the previous candidate (or the last base
-  // frame) to become a candidate: the larger of the rotation angle and the parallax angle
-  // atan(translation / median range of its observations), measured through its registration
-  // to the last base frame. The paper's sensor delivered ~5 Hz; at 30 Hz and walking speed
-  // consecutive frames see almost the same thing (on 7-Scenes their map terms differ by ~0.1
-  // nats), the gains of a buffer of consecutive frames differ only by noise, and the selector
-  // ends up taking every other frame. 2 deg is ~10 keypoint sigmas (1-2 px at f ~ 525 px is
-  // 0.1-0.2 deg): enough for candidates to differ in what they see, little enough that a
-  // buffer of 3 still spans only ~6 deg, well inside what registration handles. Frames that
-  // change the view less are placed by that registration (trajectory.tum) and kept for
-  // recovery. 0 makes every frame a candidate.
+  // frame) to become a candidate: the larger of its rotation angle and its parallax angle
+  // atan(translation / median range of its observations), through its registration to the
+  // last base frame. At 30 Hz consecutive frames see almost the same thing and a buffer of
+  // them would be scored on noise (docs/selection.md); 0 makes every frame a candidate.
   double min_view_change_deg = 2.0;
 
   bool Check(std::string* why) const;

@@ -1,6 +1,6 @@
 // Bad input, as a user meets it: the real `ieslam` binary on a small synthetic sequence with
 // one kind of damage per test. Every case ends in a clean exit with the documented code
-// (../shared/CLI.md: 2 usage/config, 3 data) and a message naming the file, line or frame and
+// (2 usage/config, 3 data) and a message naming the file, line or frame and
 // the value, or, for a bad frame in the middle of a sequence, in a counted skip: the frame is
 // listed in report.json's frames_skipped with its reason, a warning names it, and the run
 // goes on to a good trajectory.
@@ -474,7 +474,7 @@ TEST_F(BadInputTest, OutOfRangeOptionsAreExit2NamingTheFlag) {
   EXPECT_FALSE(fs::exists(root_ / "o8" / "report.json"));
 }
 
-// simulate takes --config as run does (../shared/CLI.md), checked before any work.
+// simulate takes --config as run does, checked before any work.
 TEST_F(BadInputTest, SimulateConfigIsCheckedNamingFileAndKey) {
   const fs::path config = root_ / "bad_ba.yaml";
   WriteFile(config, "ba:\n  rejection_chi2: -1\n");

@@ -71,8 +71,8 @@ TEST(CliTest, QuietAndVerboseTogetherAreAUsageErrorNamingBoth) {
   EXPECT_NE(result.output.find("--quiet and --verbose"), std::string::npos) << result.output;
 }
 
-// ../shared/CLI.md: Ctrl-C is exit 130 for every command, and what was processed is
-// written. (run's own test: run_pipeline_test.)
+// Ctrl-C is exit 130 for every command, and what was processed is written (run's own
+// test: command_run_test).
 TEST(CliTest, SigintEndsSimulateWith130AndTheRowsDone) {
   const fs::path out = TempPath("simulate");
   const int code = ExitCodeAfterSigint(
