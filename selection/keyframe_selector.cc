@@ -349,23 +349,29 @@ std::string SelectorKindName(SelectorKind kind) {
   return "?";
 }
 
-bool SelectorOptions::Check(std::string* why) const {
-  auto fail = [why](const std::string& message) {
-    if (why != nullptr) *why = message;
-    return false;
-  };
-  if (buffer_size < 1 || buffer_size > 100) {
-    return fail("buffer must be in [1, 100], got " + std::to_string(buffer_size));
-  }
-  if (interval < 1) return fail("interval must be >= 1, got " + std::to_string(interval));
-  if (min_common_features < 3) return fail("min_common_features must be >= 3");
-  if (!std::isfinite(map_gain_threshold)) return fail("map_gain_threshold must be finite");
-  if (max_recovery_frames < 0) return fail("max_recovery_frames must be >= 0");
-  if (!(min_view_change_deg >= 0.0) || !(min_view_change_deg < 90.0)) {
-    return fail("min_view_change_deg must be in [0, 90), got " +
-                std::to_string(min_view_change_deg));
-  }
-  return true;
+const OptionTable<SelectorOptions>& SelectorOptions::Table() {
+  static const OptionTable<SelectorOptions>* table = [] {
+    using O = SelectorOptions;
+    auto* t = new OptionTable<O>;
+    t->Enum("kind", &O::kind, ParseSelectorKind, SelectorKindName,
+            "info|all|interval|deadreckoning", "which frames enter the filter");
+    t->Int("buffer", &O::buffer_size, "look-ahead buffer of the info selector").Range(1, 100);
+    t->Int("interval", &O::interval, "every N-th frame for the interval selector").Min(1);
+    t->Int("min_common_features", &O::min_common_features,
+           "features shared with the base frames a candidate needs")
+        .Min(3);
+    t->Double("map_gain_threshold", &O::map_gain_threshold,
+              "nats: below it the whole buffer is added");
+    t->Int("max_recovery_frames", &O::max_recovery_frames,
+           "dropped frames tried when a buffer cannot start")
+        .Min(0);
+    t->Double("min_view_change_deg", &O::min_view_change_deg,
+              "info selector: view change from one candidate to the next")
+        .Min(0.0)
+        .Below(90.0);
+    return t;
+  }();
+  return *table;
 }
 
 KeyframeSelector::KeyframeSelector(const SelectorOptions& options) : options_(options) {

@@ -23,6 +23,7 @@
 
 #include "backend/information_filter.h"
 #include "core/frame_source.h"
+#include "core/option_table.h"
 
 namespace ieslam {
 
@@ -40,10 +41,8 @@ struct SelectorOptions {
   // least a 3-D registration needs.
   int min_common_features = 10;
   // In nats, on the best candidate's map term (GainTerms::map): below it even the best
-  // frame of the buffer tells little about the map already built (few features re-observed:
-  // sharp turns, feature-poor stretches), and all of the buffer's frames are added (the
-  // paper's threshold rule). The default is what min_common_features re-observed features
-  // give when each gains half again its information: 10 * 3 * ln(1.5) ~ 12 nats.
+  // frame of the buffer tells little about the map already built, and all of the buffer's
+  // frames are added (the paper's threshold rule; the default: docs/selection.md).
   double map_gain_threshold = 12.0;
   int max_recovery_frames = 60;  // dropped frames tried when a buffer cannot start
   // The view change, in degrees, a frame needs from the previous candidate (or the last base
@@ -53,7 +52,9 @@ struct SelectorOptions {
   // them would be scored on noise (docs/selection.md); 0 makes every frame a candidate.
   double min_view_change_deg = 2.0;
 
-  bool Check(std::string* why) const;
+  // The options' registration: keys, help, checks (core/option_table.h).
+  static const OptionTable<SelectorOptions>& Table();
+  bool Check(std::string* why) const { return Table().Check(*this, why); }
 };
 
 // One decision of the selector, for reports and the paper's Figs. 7 and 12.
