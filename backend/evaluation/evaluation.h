@@ -12,6 +12,7 @@
 
 #include <Eigen/Geometry>
 
+#include "core/timestamp_association.h"
 #include "core/trajectory.h"
 
 namespace ieslam {
@@ -52,21 +53,6 @@ struct ErrorStats {
 };
 // CHECK-fails on an empty list.
 ErrorStats ComputeErrorStats(const std::vector<double>& errors);
-
-// One association: indices into the two stamp lists and the stamps themselves.
-struct StampMatch {
-  std::size_t first_index = 0;
-  std::size_t second_index = 0;
-  double first_stamp = 0.0;
-  double second_stamp = 0.0;
-};
-
-// associate.py: candidate pairs (a, b) with |a - (b + offset)| < max_diff, taken greedily in
-// order of increasing |a - (b + offset)| (ties by a, then b) while neither stamp is used;
-// the result is sorted by the first stamp. Both lists must be sorted ascending (CHECK).
-std::vector<StampMatch> AssociateStamps(const std::vector<double>& first,
-                                        const std::vector<double>& second, double offset,
-                                        double max_diff);
 
 // evaluate_rpe.py's find_closest_index: a binary search over the sorted `list` that keeps the
 // closest element it visits (the first visited wins a tie). CHECK-fails on an empty list.

@@ -207,36 +207,6 @@ TEST(EvaluationTest, RpeSkipsPairsInGroundTruthGaps) {
   }
 }
 
-TEST(EvaluationTest, AssociationIsGreedyByTimeDifference) {
-  // (1.01, 1.012) is the closest candidate, so 1.0 falls back to 1.004.
-  std::vector<StampMatch> m = AssociateStamps({1.0, 1.01}, {1.004, 1.012}, 0.0, 0.02);
-  ASSERT_EQ(m.size(), 2u);
-  EXPECT_EQ(m[0].first_index, 0u);
-  EXPECT_EQ(m[0].second_index, 0u);
-  EXPECT_EQ(m[1].first_index, 1u);
-  EXPECT_EQ(m[1].second_index, 1u);
-  // One second stamp wanted by two first stamps: the closer one gets it, the other none.
-  m = AssociateStamps({1.0, 1.01}, {1.008}, 0.0, 0.02);
-  ASSERT_EQ(m.size(), 1u);
-  EXPECT_EQ(m[0].first_index, 1u);
-  EXPECT_DOUBLE_EQ(m[0].second_stamp, 1.008);
-}
-
-TEST(EvaluationTest, AssociationAppliesOffsetAndMaxDiff) {
-  const std::vector<double> first = {2.0, 2.1, 2.2, 2.3};
-  const std::vector<double> second = {1.0, 1.115, 1.19, 1.33};
-  // Offset 1 s: |a - (b + 1)| = 0, 0.015, 0.01, 0.03; the last is beyond 0.02.
-  std::vector<StampMatch> m = AssociateStamps(first, second, 1.0, 0.02);
-  ASSERT_EQ(m.size(), 3u);
-  for (std::size_t i = 0; i < 3; ++i) {
-    EXPECT_EQ(m[i].first_index, i);
-    EXPECT_EQ(m[i].second_index, i);
-  }
-  EXPECT_EQ(AssociateStamps(first, second, 1.0, 0.012).size(), 2u);  // drops 2.1 <-> 1.115
-  EXPECT_EQ(AssociateStamps(first, second, 1.0, 0.05).size(), 4u);
-  EXPECT_TRUE(AssociateStamps(first, second, 0.0, 0.02).empty());
-}
-
 TEST(EvaluationTest, FewerThanThreePairsThrowsNamingTheFiles) {
   const Trajectory gt = MakeTrajectory(20);
   Trajectory est(gt.begin(), gt.begin() + 2);
