@@ -60,23 +60,6 @@ double RotationAngle(const Eigen::Matrix3d& R) {
   return std::acos(std::min(1.0, std::max(-1.0, (R.trace() - 1.0) / 2.0)));
 }
 
-double Median(std::vector<double> values) {
-  CHECK(!values.empty());
-  const std::size_t n = values.size();
-  std::sort(values.begin(), values.end());
-  return n % 2 == 1 ? values[n / 2] : (values[n / 2 - 1] + values[n / 2]) / 2.0;
-}
-
-ErrorStats ScaleStats(ErrorStats stats, double factor) {
-  stats.rmse *= factor;
-  stats.mean *= factor;
-  stats.median *= factor;
-  stats.std *= factor;
-  stats.min *= factor;
-  stats.max *= factor;
-  return stats;
-}
-
 }  // namespace
 
 bool ParseDeltaUnit(const std::string& text, DeltaUnit* unit) {
@@ -112,30 +95,6 @@ bool EvaluationOptions::Check(std::string* why) const {
     return fail("delta_unit must be seconds or frames");
   }
   return true;
-}
-
-ErrorStats ComputeErrorStats(const std::vector<double>& errors) {
-  CHECK(!errors.empty()) << "statistics of an empty error list";
-  const double n = static_cast<double>(errors.size());
-  ErrorStats stats;
-  stats.count = errors.size();
-  double sum = 0.0;
-  double sum_sq = 0.0;
-  for (double e : errors) {
-    sum += e;
-    sum_sq += e * e;
-  }
-  stats.rmse = std::sqrt(sum_sq / n);
-  stats.mean = sum / n;
-  stats.median = Median(errors);
-  // Two passes, as numpy.std: sum of squares minus n mean^2 cancels for tight errors.
-  double var = 0.0;
-  for (double e : errors) var += (e - stats.mean) * (e - stats.mean);
-  stats.std = std::sqrt(var / n);
-  const auto [lo, hi] = std::minmax_element(errors.begin(), errors.end());
-  stats.min = *lo;
-  stats.max = *hi;
-  return stats;
 }
 
 std::size_t FindClosestIndex(const std::vector<double>& list, double value) {
@@ -309,7 +268,7 @@ RpeResult ComputeRpe(const Trajectory& gt, const Trajectory& est, const Evaluati
   }
   result.translation = ComputeErrorStats(trans_errors);
   // As TUM: statistics of the radians, converted afterwards.
-  result.rotation = ScaleStats(ComputeErrorStats(rot_errors), kRadToDeg);
+  result.rotation = ScaleErrorStats(ComputeErrorStats(rot_errors), kRadToDeg);
   return result;
 }
 
@@ -327,17 +286,6 @@ EvaluationResult EvaluateTrajectories(const Trajectory& gt, const Trajectory& es
     aligned.T_w_c = result.ate.T_gt_est * ScaleTranslation(pose.T_w_c, options.scale);
     result.aligned_estimate.push_back(aligned);
   }
-  return result;
-}
-
-EvaluationResult EvaluateTrajectoryFiles(const std::string& gt_path, const std::string& est_path,
-                                         const EvaluationOptions& options) {
-  RequireValidOptions(options);
-  std::vector<std::string> warnings;
-  const Trajectory gt = ReadTumTrajectoryForEvaluation(gt_path, &warnings);
-  const Trajectory est = ReadTumTrajectoryForEvaluation(est_path, &warnings);
-  EvaluationResult result = EvaluateTrajectories(gt, est, options, gt_path, est_path);
-  result.warnings = std::move(warnings);
   return result;
 }
 
