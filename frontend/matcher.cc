@@ -7,6 +7,8 @@
 #include <Eigen/Core>
 #include <opencv2/flann.hpp>
 
+#include "core/error.h"
+
 namespace ieslam {
 namespace {
 
@@ -98,7 +100,7 @@ struct BaseFrameDatabase::Index {
 BaseFrameDatabase::BaseFrameDatabase(const DatabaseOptions& options)
     : options_(options), index_(new Index) {
   std::string why;
-  CHECK(options.Check(&why)) << why;
+  if (!options.Check(&why)) throw ConfigError(why);
 }
 
 BaseFrameDatabase::~BaseFrameDatabase() = default;

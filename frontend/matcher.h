@@ -48,6 +48,7 @@ struct DatabaseOptions {
 // once, the index is rebuilt when a base frame is added and never per query.
 class BaseFrameDatabase {
  public:
+  // Throws ConfigError for options failing Check().
   explicit BaseFrameDatabase(const DatabaseOptions& options);
   ~BaseFrameDatabase();
   BaseFrameDatabase(const BaseFrameDatabase&) = delete;

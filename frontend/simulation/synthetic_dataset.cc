@@ -168,7 +168,7 @@ SyntheticFrame RenderSyntheticFrame(const SyntheticScene& scene, const Rig& rig,
                                     const Eigen::Isometry3d& T_w_c,
                                     const SyntheticDatasetOptions& options, int index) {
   std::string why;
-  CHECK(options.Check(&why)) << why;
+  if (!options.Check(&why)) throw ConfigError("synthetic dataset options: " + why);
   SyntheticFrame frame;
   frame.timestamp = SyntheticTimestamp(options, index);
   frame.T_w_c = T_w_c;

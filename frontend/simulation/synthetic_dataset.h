@@ -92,7 +92,7 @@ struct SyntheticFrame {
 
 // Renders frame `index` (its noise seeded by noise_seed and index) at pose T_w_c of the
 // colour camera. `rig` is normally SyntheticRig(options.sensor, options.resolution_scale).
-// CHECK-fails on options failing Check().
+// Throws ConfigError for options failing Check().
 SyntheticFrame RenderSyntheticFrame(const SyntheticScene& scene, const Rig& rig,
                                     const Eigen::Isometry3d& T_w_c,
                                     const SyntheticDatasetOptions& options, int index);

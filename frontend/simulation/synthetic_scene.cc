@@ -7,6 +7,8 @@
 #include <glog/logging.h>
 #include <Eigen/Geometry>
 
+#include "core/error.h"
+
 namespace ieslam {
 namespace {
 
@@ -65,7 +67,7 @@ Eigen::Vector3d SceneBox::Corner(int i) const {
 
 SyntheticScene::SyntheticScene(const SyntheticSceneOptions& options) : options_(options) {
   std::string why;
-  CHECK(options.Check(&why)) << why;
+  if (!options.Check(&why)) throw ConfigError("synthetic scene options: " + why);
   std::mt19937 rng(options.seed);
   for (int i = 0; i < kRoomSurfaceCount; ++i) {
     textures_.push_back(RandomSurfaceTexture(/*allow_text=*/i >= kWallMinusX, &rng));

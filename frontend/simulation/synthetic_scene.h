@@ -78,8 +78,8 @@ enum RoomSurface : int {
 
 class SyntheticScene {
  public:
-  // CHECK-fails on options that fail Check(). Boxes and boards that cannot be placed without
-  // overlap after many tries are left out (boxes().size() may be below box_count).
+  // Throws ConfigError for options that fail Check(). Boxes and boards that cannot be placed
+  // without overlap after many tries are left out (boxes().size() may be below box_count).
   explicit SyntheticScene(const SyntheticSceneOptions& options);
 
   const SyntheticSceneOptions& options() const { return options_; }

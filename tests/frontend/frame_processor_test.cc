@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include "core/error.h"
 #include "core/pose.h"
 #include "frontend/simulation/synthetic_dataset.h"
 
@@ -17,6 +18,20 @@ class FrameProcessorTest : public ::testing::Test {
   static Dataset* dataset_;
 };
 Dataset* FrameProcessorTest::dataset_ = nullptr;
+
+TEST(FrameProcessorOptionsTest, BadOptionsOrRigThrowConfigError) {
+  const Rig rig = SyntheticRig(SyntheticSensor::kRgbd, 0.25);
+  FrontendOptions bad;
+  bad.matching.ratio = 1.5;
+  EXPECT_THROW(FrameProcessor(rig, bad), ConfigError);
+  bad = FrontendOptions();
+  bad.lifting.window_radius = 9;
+  EXPECT_THROW(FrameProcessor(rig, bad), ConfigError);
+  Rig bad_rig = rig;
+  bad_rig.colour.fx = -1.0;
+  EXPECT_THROW(FrameProcessor(bad_rig, FrontendOptions()), ConfigError);
+  EXPECT_NO_THROW(FrameProcessor(rig, FrontendOptions()));
+}
 
 TEST_F(FrameProcessorTest, LiftsMostKeypointsOfARealFrame) {
   const FrameProcessor processor(dataset_->rig(), FrontendOptions());

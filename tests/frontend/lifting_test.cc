@@ -7,6 +7,7 @@
 #include <random>
 
 #include "core/dataset.h"
+#include "core/error.h"
 #include "frontend/simulation/synthetic_dataset.h"
 
 namespace ieslam {
@@ -193,6 +194,22 @@ TEST_F(LiftingTest, PixelsNearDepthEdgesAreRefusedOrLiftedOntoTheirOwnSurface) {
 // With the imager's noise (sigma = 5 mm + 1% of the range), the lifted range is off by the
 // noise: within 3 sigma (plus the noise-free bound) for at least 95% of the lifted pixels
 // (Gaussian: 99.7%; measured 99.9%); 99.9% of the pixels away from edges lift.
+TEST(LiftingOptionsTest, BadOptionsOrRigThrowConfigError) {
+  const Rig rig = SyntheticRig(SyntheticSensor::kPair, 0.25);
+  LiftingOptions bad;
+  bad.min_valid_in_window = 0;
+  EXPECT_THROW(FeatureLifter(rig, bad), ConfigError);
+  Rig bad_rig = rig;
+  bad_rig.range.max_range_m = 0.0;
+  try {
+    FeatureLifter lifter(bad_rig, LiftingOptions());
+    FAIL() << "expected ConfigError";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("synthetic_pair"), std::string::npos) << e.what();
+  }
+  EXPECT_NO_THROW(FeatureLifter(rig, LiftingOptions()));
+}
+
 TEST(LiftingNoiseTest, NoisyRangesStayWithinThreeSigma) {
   const LiftingCase c = LiftFrame(0, /*noise=*/true);
   int clean = 0, clean_lifted = 0, lifted = 0, within = 0;
