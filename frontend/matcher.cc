@@ -132,11 +132,8 @@ void BaseFrameDatabase::Add(int frame_id, const cv::Mat& descriptors) {
   index_->indexed = index_->rows.rows;
 }
 
-std::vector<std::pair<int, int>> BaseFrameDatabase::RankFrames(const cv::Mat& query,
-                                                               int max_frames) const {
-  std::vector<std::pair<int, int>> ranked;
-  if (index_->rows.empty() || query.rows == 0) return ranked;
-  const int k = std::min<int>(options_.neighbours, index_->rows.rows);
+std::vector<std::vector<std::pair<float, int>>> BaseFrameDatabase::Nearest(const cv::Mat& query,
+                                                                           int k) const {
   // Per query row, (squared distance, database row) of its k nearest: the index's, then
   // merged with the exact tail's.
   std::vector<std::vector<std::pair<float, int>>> nearest(query.rows);
@@ -155,8 +152,6 @@ std::vector<std::pair<int, int>> BaseFrameDatabase::RankFrames(const cv::Mat& qu
   // The k nearest of each row's candidates, ordered by (distance, row): the index's k and
   // the exact tail's, kept by insertion while the tail is scanned in column blocks (no
   // per-row list of every tail row, no full distance matrix of a long tail).
-  std::vector<std::vector<size_t>> indices(query.rows);
-  std::vector<std::vector<float>> dists(query.rows);
   for (auto& candidates : nearest) std::sort(candidates.begin(), candidates.end());
   const int tail = index_->rows.rows - index_->indexed;
   if (tail > 0) {
@@ -182,6 +177,17 @@ std::vector<std::pair<int, int>> BaseFrameDatabase::RankFrames(const cv::Mat& qu
       }
     }
   }
+  return nearest;
+}
+
+std::vector<std::pair<int, int>> BaseFrameDatabase::RankFrames(const cv::Mat& query,
+                                                               int max_frames) const {
+  std::vector<std::pair<int, int>> ranked;
+  if (index_->rows.empty() || query.rows == 0) return ranked;
+  const int k = std::min<int>(options_.neighbours, index_->rows.rows);
+  const std::vector<std::vector<std::pair<float, int>>> nearest = Nearest(query, k);
+  std::vector<std::vector<size_t>> indices(query.rows);
+  std::vector<std::vector<float>> dists(query.rows);
   for (int i = 0; i < query.rows; ++i) {
     const size_t keep = std::min<size_t>(k, nearest[i].size());
     for (size_t n = 0; n < keep; ++n) {

@@ -66,6 +66,9 @@ class BaseFrameDatabase {
 
  private:
   struct Index;
+  // Per query row, (squared distance, database row) of its k nearest database rows, nearest
+  // first: the index's approximate neighbours merged with the exact search of the tail.
+  std::vector<std::vector<std::pair<float, int>>> Nearest(const cv::Mat& query, int k) const;
   // Rows added since the last build that are searched exactly before a rebuild is due.
   static constexpr int kMinTailRows = 2048;
   static constexpr int kTailFraction = 16;
