@@ -57,7 +57,7 @@ Eigen::Isometry3d ReadPose(const std::string& path) {
     for (int c = 0; c < 4; ++c) T(r, c) = m[4 * r + c];
   }
   const Eigen::Matrix3d R = T.topLeftCorner<3, 3>();
-  // KinectFusion's chained poses drift from orthonormal (|R^T R - I| ~ 3e-4 in 7scenes-dev),
+  // KinectFusion's chained poses drift slightly from orthonormal (docs/frontend_notes.md),
   // so only a clearly non-rigid matrix (a scale, a shear) is rejected; the rest is projected
   // onto the nearest rotation below.
   const double error = (R.transpose() * R - Eigen::Matrix3d::Identity()).norm();

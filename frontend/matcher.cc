@@ -85,11 +85,8 @@ std::vector<DescriptorMatch> MatchDescriptors(const cv::Mat& query, const cv::Ma
 // draws from std::rand, which cvflann::seed_random seeds. OpenCV's index cannot grow, so the
 // rows added since the last build (the tail) are searched exactly, and the index is rebuilt
 // once the tail passes 1/kTailFraction of the indexed rows: geometric growth bounds the total
-// build cost by a constant times the final build. A build costs ~100 samples x 128 dims per
-// tree node (leaves hold one row), a query of the tail ~128 flops per row; measured with
-// BM_RankDatabase/BM_DatabaseAdd on 150 base frames (CPU ms, loaded machine): a quarter with
-// 4 trees ranked in 48 ms and added a frame in 13 ms, 1/16 with 1 tree in 16 and 7 ms,
-// with the same ATE on 250 7-Scenes frames (1.7 cm).
+// build cost by a constant times the final build. One tree and a 1/16 tail rank as well as
+// more trees and a longer tail at a fraction of the cost (docs/frontend_notes.md).
 struct BaseFrameDatabase::Index {
   cv::Mat storage;  // capacity for rows
   cv::Mat rows;     // every base frame's descriptors, in the order added (in storage)
