@@ -14,6 +14,13 @@
 namespace ieslam {
 namespace {
 
+TEST(SevenScenesDataset, ConstructorRejectsBadOptionsWithConfigError) {
+  DatasetOptions bad;
+  bad.first = 5;
+  bad.last = 4;
+  ExpectConfigError([&] { SevenScenesDataset(kSevenScenes, bad); }, "last");
+}
+
 // ---------------------------------------------------------------- real data: 7-Scenes
 
 TEST(SevenScenesDataset, OpensFiveHundredFramesWithPoses) {
@@ -130,13 +137,6 @@ TEST_F(DatasetFilesTest, SevenScenesBadPosesAndMissingDepthNameTheFile) {
   std::filesystem::remove(Path("frame-000001.pose.txt"));
   std::filesystem::remove(Path("frame-000001.depth.png"));
   ExpectDataError([&] { OpenDataset(dir_, DatasetOptions()); }, Path("frame-000001.depth.png"));
-}
-
-TEST(SevenScenesDataset, ConstructorRejectsBadOptionsWithConfigError) {
-  DatasetOptions bad;
-  bad.first = 5;
-  bad.last = 4;
-  ExpectConfigError([&] { SevenScenesDataset(kSevenScenes, bad); }, "last");
 }
 
 }  // namespace
