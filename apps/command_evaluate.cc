@@ -4,6 +4,7 @@
 #include "apps/app_util.h"
 #include "apps/commands.h"
 #include "backend/evaluation/evaluation.h"
+#include "backend/evaluation/evaluation_io.h"
 #include "core/error.h"
 #include "core/file_util.h"
 

@@ -9,9 +9,11 @@
 #include <glog/logging.h>
 #include <opencv2/imgcodecs.hpp>
 
-#include "core/dataset_formats.h"
 #include "core/error.h"
 #include "core/file_util.h"
+#include "core/pair_dataset.h"
+#include "core/seven_scenes_dataset.h"
+#include "core/tum_dataset.h"
 
 namespace ieslam {
 namespace {
@@ -53,6 +55,11 @@ bool IsFile(const std::string& path) {
   return std::filesystem::is_regular_file(path, ec);
 }
 
+void RequireValid(const DatasetOptions& options) {
+  std::string why;
+  if (!options.Check(&why)) throw ConfigError("dataset options: " + why);
+}
+
 void RequireDatasetDirectory(const std::string& directory) {
   std::error_code ec;
   if (!std::filesystem::exists(directory, ec)) {
@@ -84,6 +91,11 @@ bool DatasetOptions::Check(std::string* why) const {
   }
   if (why != nullptr) *why = s.str();
   return false;
+}
+
+Dataset::Dataset(std::string directory, const DatasetOptions& options)
+    : directory_(std::move(directory)) {
+  RequireValid(options);
 }
 
 bool Dataset::has_ground_truth() const {
@@ -127,8 +139,6 @@ Trajectory Dataset::GroundTruth() const {
 }
 
 void Dataset::SelectFrames(std::vector<FrameInfo> all, const DatasetOptions& options) {
-  std::string why;
-  CHECK(options.Check(&why)) << why;
   total_frames_ = static_cast<int>(all.size());
   if (all.empty()) throw DataError("no frames in dataset " + directory_);
   if (options.first >= total_frames_) {
@@ -165,8 +175,7 @@ std::string DetectDatasetFormat(const std::string& directory) {
 }
 
 std::unique_ptr<Dataset> OpenDataset(const std::string& directory, const DatasetOptions& options) {
-  std::string why;
-  if (!options.Check(&why)) throw ConfigError("dataset options: " + why);
+  RequireValid(options);
   RequireDatasetDirectory(directory);
   const std::string format =
       options.format == "auto" ? DetectDatasetFormat(directory) : options.format;

@@ -2,30 +2,16 @@
 // truth, behind one interface. Frames are loaded lazily, one at a time: opening a
 // 10,000-frame sequence reads only its lists, never its images.
 //
-// Formats (see README "Datasets"):
-//  - tum:     TUM RGB-D (rgb.txt, depth.txt, optional groundtruth.txt); colour and depth
-//             associated by nearest timestamp within 0.02 s as TUM's associate.py does.
-//  - 7scenes: frame-NNNNNN.color.{png,jpg}, .depth.png, .pose.txt; frame i at i/30 s.
+// Formats (see README "Datasets"), each a subclass in its own file:
+//  - tum:     TUM RGB-D (core/tum_dataset.h).
+//  - 7scenes: Microsoft 7-Scenes (core/seven_scenes_dataset.h).
 //  - pair:    a colour camera plus a separate range imager (the paper's package), each at
-//             its own resolution, with calib.yaml in the directory. Layout:
-//               calib.yaml       the rig (core/calibration.h); required unless
-//                                DatasetOptions::calib_file is set
-//               colour.txt       `timestamp path` lines (TUM style, `#` comments), colour images
-//               range.txt        `timestamp path` lines, 16-bit PNG range images
-//                                (raw * depth_scale = metres, as the rig says)
-//               groundtruth.txt  optional, TUM trajectory of the colour camera (T_w_c)
-//             Paths are relative to the directory; colour and range are associated by
-//             nearest timestamp as for tum.
-//
-// Calibration: DatasetOptions::calib_file when set; otherwise tum uses calib.yaml in the
-// directory if present, else data/calib/tum_fr{1,2,3}.yaml by the directory name
-// (freiburg1/fr1, ...; tum_fr1 when the name says nothing: see calibration_source());
-// 7scenes uses data/calib/7scenes.yaml with the depth intrinsics of the dataset's
-// camera-intrinsics.txt when present; pair uses its calib.yaml.
+//             its own resolution, with calib.yaml in the directory (core/pair_dataset.h).
+// Each file says where its format finds its calibration.
 //
 // Ground truth (tum, pair) is associated to each frame's colour timestamp: interpolated
 // between the two poses around it when both are within max_ground_truth_diff_s, else the
-// nearest within that tolerance, else none.
+// nearest within that tolerance, else none (core/listed_frames.h).
 #pragma once
 
 #include <memory>
@@ -62,7 +48,7 @@ struct DatasetOptions {
   int first = 0;                          // first frame (in the dataset's own numbering)
   int last = -1;                          // last frame, inclusive; -1 = to the end
   int stride = 1;                         // take every stride-th frame
-  double max_association_diff_s = 0.02;   // TUM rgb/depth association
+  double max_association_diff_s = 0.02;   // colour/range association (tum, pair)
   double max_ground_truth_diff_s = 0.02;  // frame to ground-truth pose association
 
   bool Check(std::string* why) const;
@@ -93,10 +79,12 @@ class Dataset {
   Trajectory GroundTruth() const;
 
  protected:
-  Dataset(std::string directory, Rig rig)
-      : directory_(std::move(directory)), rig_(std::move(rig)) {}
-  // Applies first/last/stride to the full frame list and numbers the result. Throws
-  // DataError when `all` is empty or `first` lies beyond its end.
+  // Throws ConfigError for options failing DatasetOptions::Check: every format's
+  // constructor takes the user's options through here first.
+  Dataset(std::string directory, const DatasetOptions& options);
+  // Applies first/last/stride (of the options the constructor checked) to the full frame
+  // list and numbers the result. Throws DataError when `all` is empty or `first` lies
+  // beyond its end.
   void SelectFrames(std::vector<FrameInfo> all, const DatasetOptions& options);
 
   std::string directory_;

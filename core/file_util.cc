@@ -58,4 +58,9 @@ std::string JoinPath(const std::string& dir, const std::string& name) {
   return dir + "/" + name;
 }
 
+std::string ResolvePath(const std::string& directory, const std::string& path) {
+  if (!path.empty() && path.front() == '/') return path;
+  return JoinPath(directory, path);
+}
+
 }  // namespace ieslam

@@ -1,4 +1,4 @@
-// Small file helpers shared by every stage: atomic writes and existence checks.
+// Small file helpers shared by every stage: atomic writes, existence checks and paths.
 #pragma once
 
 #include <functional>
@@ -21,5 +21,7 @@ void RequireDirectory(const std::string& path, const std::string& what);
 
 // Joins two path components with exactly one '/'.
 std::string JoinPath(const std::string& dir, const std::string& name);
+// `path` if absolute, else `directory`/`path`.
+std::string ResolvePath(const std::string& directory, const std::string& path);
 
 }  // namespace ieslam

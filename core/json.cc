@@ -20,6 +20,12 @@ Json Json::Array() {
   return json;
 }
 
+Json Json::BareDouble(double d) {
+  Json json(d);
+  json.point_when_integral_ = false;
+  return json;
+}
+
 Json& Json::Set(const std::string& key, Json value) {
   (*this)[key] = std::move(value);
   return *this;
@@ -104,7 +110,7 @@ void Json::DumpTo(std::string* out, int indent, int depth) const {
       *out += number;
       // A double stays one when read back: "3" would come back as an integer in Python's
       // json, JavaScript's and most others'.
-      if (number.find_first_of(".e") == std::string::npos) *out += ".0";
+      if (point_when_integral_ && number.find_first_of(".e") == std::string::npos) *out += ".0";
       return;
     }
     case Kind::kString:

@@ -1,7 +1,7 @@
 // A small JSON value for writing reports (report.json, evaluation.json, register.json):
 // objects keep their keys in insertion order, doubles print in the shortest form that reads
-// back to the same value (with ".0" when integral, so that they read back as doubles), NaN
-// and inf print as null (JSON has no such numbers).
+// back to the same value (with ".0" when integral, so that they read back as doubles, unless
+// made by BareDouble), NaN and inf print as null (JSON has no such numbers).
 #pragma once
 
 #include <cstdint>
@@ -27,6 +27,9 @@ class Json {
 
   static Json Object();
   static Json Array();
+  // A double printed without the ".0" an integral value otherwise gets (1, not 1.0), for a
+  // file whose format prints its numbers so (evaluation.json).
+  static Json BareDouble(double d);
   template <typename T>
   static Json ArrayOf(const std::vector<T>& values) {
     Json array = Array();
@@ -57,6 +60,7 @@ class Json {
   bool bool_ = false;
   int64_t int_ = 0;
   double double_ = 0.0;
+  bool point_when_integral_ = true;  // a double: append ".0" to an integral value
   std::string string_;
   std::vector<std::pair<std::string, Json>> members_;  // object
   std::vector<Json> items_;                            // array

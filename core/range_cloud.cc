@@ -10,6 +10,111 @@
 
 namespace ieslam {
 
+namespace {
+
+// The cloud of `range`'s grid at `step` with every point, normal and sigma NaN.
+RangeCloud EmptyRangeCloud(const RangeImager& range, const Eigen::Isometry3d& T_colour_range,
+                           int step) {
+  RangeCloud cloud;
+  cloud.T_colour_range = T_colour_range;
+  cloud.grid = range.camera;
+  cloud.grid.width = (range.camera.width + step - 1) / step;
+  cloud.grid.height = (range.camera.height + step - 1) / step;
+  cloud.grid.fx /= step;
+  cloud.grid.fy /= step;
+  cloud.grid.cx /= step;
+  cloud.grid.cy /= step;
+  const size_t cells = static_cast<size_t>(cloud.grid.width) * cloud.grid.height;
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  cloud.p_r.assign(cells, Eigen::Vector3f::Constant(nan));
+  cloud.n_r.assign(cells, Eigen::Vector3f::Constant(nan));
+  cloud.sigma_m.assign(cells, nan);
+  return cloud;
+}
+
+// A grid point's position, normal and range sigma from the range pixels of its window
+// (RangeCloudOptions says which are used and when the point is refused).
+class GridPointEstimator {
+ public:
+  GridPointEstimator(const cv::Mat& depth, const RangeImager& range,
+                     const RangeCloudOptions& options, const std::string& what)
+      : depth_(depth),
+        range_(range),
+        options_(options),
+        what_(what),
+        radius_(options.step),
+        stride_(std::max(1, options.step / 2)),
+        per_row_(2 * (radius_ / stride_) + 1),
+        window_(per_row_ * per_row_),
+        min_cos_incidence_(std::cos(options.max_incidence_deg * M_PI / 180.0)) {}
+
+  // The point at pixel (x, y), its unit normal facing the camera and its sigma; false when
+  // the pixel or its window does not make a point. Throws ConfigError naming `what` when the
+  // noise model gives a sigma that is not positive.
+  bool Estimate(int x, int y, Eigen::Vector3d* p_out, Eigen::Vector3d* n_out,
+                double* sigma_out) const {
+    Eigen::Vector3d p;
+    if (!PointAt(x, y, 0.0, &p)) return false;
+    // The window's plane: centroid and scatter about it (relative to p, for precision).
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
+    int count = 0;
+    const int reach = (radius_ / stride_) * stride_;  // symmetric for any step
+    for (int dy = -reach; dy <= reach; dy += stride_) {
+      for (int dx = -reach; dx <= reach; dx += stride_) {
+        Eigen::Vector3d q;
+        if (!PointAt(x + dx, y + dy, p.z(), &q)) continue;
+        const Eigen::Vector3d d = q - p;
+        sum += d;
+        scatter.noalias() += d * d.transpose();
+        ++count;
+      }
+    }
+    if (3 * count < 2 * window_) return false;
+    const Eigen::Vector3d mean = sum / count;
+    const Eigen::Matrix3d covariance = scatter / count - mean * mean.transpose();
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen;
+    eigen.computeDirect(covariance);
+    const double sigma = range_.noise.Sigma(p.norm());
+    if (!(sigma > 0.0)) {
+      throw ConfigError(what_ + ": the range noise model gives sigma " + std::to_string(sigma) +
+                        " m at " + std::to_string(p.norm()) + " m; it must be positive");
+    }
+    const double off_plane = std::sqrt(std::max(0.0, eigen.eigenvalues()[0]));
+    if (off_plane > options_.max_flatness_sigmas * sigma) return false;
+    Eigen::Vector3d n = eigen.eigenvectors().col(0).normalized();
+    const Eigen::Vector3d ray = p.normalized();
+    if (n.dot(ray) > 0.0) n = -n;
+    if (-n.dot(ray) < min_cos_incidence_) return false;
+    *p_out = p;
+    *n_out = n;
+    *sigma_out = sigma;
+    return true;
+  }
+
+ private:
+  // The point at a pixel, or nothing when its range is invalid or too far from `z0`'s.
+  bool PointAt(int x, int y, double z0, Eigen::Vector3d* p) const {
+    if (x < 0 || y < 0 || x >= depth_.cols || y >= depth_.rows) return false;
+    const float value = depth_.at<float>(y, x);
+    if (!(value > 0.0f) || !std::isfinite(value)) return false;
+    *p = range_.PixelToPoint(Eigen::Vector2d(x, y), value);
+    return z0 <= 0.0 || std::abs(p->z() - z0) <= options_.max_neighbour_depth_ratio * z0;
+  }
+
+  const cv::Mat& depth_;
+  const RangeImager& range_;
+  const RangeCloudOptions& options_;
+  const std::string& what_;
+  const int radius_;
+  const int stride_;
+  const int per_row_;  // the window's offsets in each direction
+  const int window_;
+  const double min_cos_incidence_;
+};
+
+}  // namespace
+
 bool RangeCloudOptions::Check(std::string* why) const {
   std::string problem;
   if (step < 1 || step > 64) {
@@ -75,69 +180,13 @@ RangeCloud MakeRangeCloud(const cv::Mat& depth, const RangeImager& range,
                     " metres (CV_32FC1)");
   }
   const int step = options.step;
-  RangeCloud cloud;
-  cloud.T_colour_range = T_colour_range;
-  cloud.grid = range.camera;
-  cloud.grid.width = (range.camera.width + step - 1) / step;
-  cloud.grid.height = (range.camera.height + step - 1) / step;
-  cloud.grid.fx /= step;
-  cloud.grid.fy /= step;
-  cloud.grid.cx /= step;
-  cloud.grid.cy /= step;
-  const size_t cells = static_cast<size_t>(cloud.grid.width) * cloud.grid.height;
-  const float nan = std::numeric_limits<float>::quiet_NaN();
-  cloud.p_r.assign(cells, Eigen::Vector3f::Constant(nan));
-  cloud.n_r.assign(cells, Eigen::Vector3f::Constant(nan));
-  cloud.sigma_m.assign(cells, nan);
-
-  const int radius = step, stride = std::max(1, step / 2);
-  const int per_row = 2 * (radius / stride) + 1;  // the window's offsets in each direction
-  const int window = per_row * per_row;
-  const double min_cos_incidence = std::cos(options.max_incidence_deg * M_PI / 180.0);
-  // The point at a pixel, or nothing when its range is invalid or too far from `z0`'s.
-  auto point_at = [&](int x, int y, double z0, Eigen::Vector3d* p) {
-    if (x < 0 || y < 0 || x >= depth.cols || y >= depth.rows) return false;
-    const float value = depth.at<float>(y, x);
-    if (!(value > 0.0f) || !std::isfinite(value)) return false;
-    *p = range.PixelToPoint(Eigen::Vector2d(x, y), value);
-    return z0 <= 0.0 || std::abs(p->z() - z0) <= options.max_neighbour_depth_ratio * z0;
-  };
+  RangeCloud cloud = EmptyRangeCloud(range, T_colour_range, step);
+  const GridPointEstimator estimator(depth, range, options, what);
   for (int gy = 0; gy < cloud.grid.height; ++gy) {
     for (int gx = 0; gx < cloud.grid.width; ++gx) {
-      const int x = gx * step, y = gy * step;
-      Eigen::Vector3d p;
-      if (!point_at(x, y, 0.0, &p)) continue;
-      // The window's plane: centroid and scatter about it (relative to p, for precision).
-      Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-      Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
-      int count = 0;
-      const int reach = (radius / stride) * stride;  // symmetric for any step
-      for (int dy = -reach; dy <= reach; dy += stride) {
-        for (int dx = -reach; dx <= reach; dx += stride) {
-          Eigen::Vector3d q;
-          if (!point_at(x + dx, y + dy, p.z(), &q)) continue;
-          const Eigen::Vector3d d = q - p;
-          sum += d;
-          scatter.noalias() += d * d.transpose();
-          ++count;
-        }
-      }
-      if (3 * count < 2 * window) continue;
-      const Eigen::Vector3d mean = sum / count;
-      const Eigen::Matrix3d covariance = scatter / count - mean * mean.transpose();
-      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen;
-      eigen.computeDirect(covariance);
-      const double sigma = range.noise.Sigma(p.norm());
-      if (!(sigma > 0.0)) {
-        throw ConfigError(what + ": the range noise model gives sigma " + std::to_string(sigma) +
-                          " m at " + std::to_string(p.norm()) + " m; it must be positive");
-      }
-      const double off_plane = std::sqrt(std::max(0.0, eigen.eigenvalues()[0]));
-      if (off_plane > options.max_flatness_sigmas * sigma) continue;
-      Eigen::Vector3d n = eigen.eigenvectors().col(0).normalized();
-      const Eigen::Vector3d ray = p.normalized();
-      if (n.dot(ray) > 0.0) n = -n;
-      if (-n.dot(ray) < min_cos_incidence) continue;
+      Eigen::Vector3d p, n;
+      double sigma = 0.0;
+      if (!estimator.Estimate(gx * step, gy * step, &p, &n, &sigma)) continue;
       const size_t cell = static_cast<size_t>(gy) * cloud.grid.width + gx;
       cloud.p_r[cell] = p.cast<float>();
       cloud.n_r[cell] = n.cast<float>();

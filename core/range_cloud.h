@@ -24,12 +24,12 @@ struct RangeCloudOptions {
   int step = 4;  // range pixels between grid points, in each direction
   // A grid point's normal is the least-squares plane through the range points within `step`
   // pixels of it (every step / 2-th pixel: 25 points), as Open3D and PCL estimate normals;
-  // a difference of two neighbours instead is noisy (at 1 m, a Kinect's 2 mm of range noise
-  // over 7 mm between pixels 4 apart tilts it by ~20 deg) and blends two planes at a crease.
+  // a difference of two neighbours instead is noisy (range noise over a few millimetres
+  // between pixels) and blends two planes at a crease (docs/frontend_notes.md).
   // Neighbours whose depth differs from the point's by more than max_neighbour_depth_ratio
-  // of it are the other side of a depth edge and are not used: 0.05 across 4 px at 585 px
-  // focal length is a surface seen 82 deg from face-on, which is not resolved anyway. A
-  // point needs two thirds of its window on its own surface.
+  // of it are the other side of a depth edge and are not used: the default is a surface
+  // seen nearly edge-on at Kinect resolution, which is not resolved anyway. A point needs
+  // two thirds of its window on its own surface.
   double max_neighbour_depth_ratio = 0.05;
   // ... and its window flat within this many range sigmas (the RMS distance of the window's
   // points from their plane): at a crease or a small object the plane and its normal are

@@ -73,8 +73,8 @@ std::string FormatTumLine(const TimedPose& pose) {
   Eigen::Quaterniond q(pose.T_w_c.linear());
   if (q.w() < 0.0) q.coeffs() = -q.coeffs();  // one sign for q and -q, so files compare equal
   const Eigen::Vector3d& t = pose.T_w_c.translation();
-  // Sized by a first call: a fixed buffer silently cut lines with huge values (a 1e308
-  // coordinate prints 309 digits; found by tests/fuzz/tum_trajectory_fuzz.cc).
+  // Sized by a first call: a huge value prints hundreds of digits (1e308 with %.9f: 309
+  // before the point), which a fixed buffer would cut.
   const char* const format = "%.6f %.9f %.9f %.9f %.9f %.9f %.9f %.9f";
   const int size = std::snprintf(nullptr, 0, format, pose.timestamp, t.x(), t.y(), t.z(), q.x(),
                                  q.y(), q.z(), q.w());

@@ -1,13 +1,11 @@
-// TUM RGB-D format (Sturm et al., IROS 2012): rgb.txt and depth.txt list `timestamp path`,
-// groundtruth.txt (optional) holds the colour camera's motion-capture poses. Depth is
-// registered to colour, 16-bit, raw / 5000 = metres.
+#include "core/tum_dataset.h"
+
 #include <filesystem>
 #include <regex>
 
 #include "core/calibration.h"
-#include "core/dataset_formats.h"
-#include "core/error.h"
 #include "core/file_util.h"
+#include "core/listed_frames.h"
 
 namespace ieslam {
 namespace {
@@ -25,7 +23,7 @@ std::string DirectoryName(const std::string& directory) {
 }  // namespace
 
 TumDataset::TumDataset(const std::string& directory, const DatasetOptions& options)
-    : Dataset(directory, Rig()) {
+    : Dataset(directory, options) {
   const std::string local_calib = JoinPath(directory, "calib.yaml");
   std::error_code ec;
   if (!options.calib_file.empty()) {

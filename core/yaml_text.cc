@@ -18,10 +18,10 @@ bool BlankOrComment(const std::string& s) {
 
 }  // namespace
 
-// Why these rules: YAMLParser::parse (modules/core/src/persistence_yml.cpp, OpenCV 4.6)
-// parses the root collection, and when that ends before the end of the text it skips three
-// characters (taken to be `...` or `---`) and scans for the next document; standing on a
-// `-` that does not start `---` it neither advances nor fails, so open() never returns.
+// Why these rules: OpenCV 4.6's YAML parser (YAMLParser::parse) parses the root collection,
+// and when that ends before the end of the text it skips three characters (taken to be `...`
+// or `---`) and scans for the next document; standing on a `-` that does not start `---` it
+// neither advances nor fails, so open() never returns.
 // A block map whose first key is in column 1 ends only at the end of the text, at a `...`
 // line or with a parse error; an indented root (one on the `---` line too) ends at the first
 // line indented less, a flow root at its bracket (tests/core/yaml_text_test.cc holds one

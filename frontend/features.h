@@ -18,8 +18,8 @@ struct FeatureOptions {
   double sigma = 1.6;
   // SIFT runs on the image resized by this factor and keypoints are scaled back. OpenCV
   // doubles the image before the first octave, so 0.5 still starts at full resolution's
-  // finest detail; measured on 640x480 Kinect frames it keeps registration accuracy at
-  // about a third of the cost (../shared/MEASURED.md).
+  // finest detail, and on VGA frames it keeps the registration accuracy of full resolution
+  // at a fraction of the cost (docs/frontend_notes.md).
   double image_scale = 0.5;
 
   bool Check(std::string* why) const;

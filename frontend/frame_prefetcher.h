@@ -1,12 +1,12 @@
-// Pipelining (issue 9): worker threads load, extract and lift the frames after the one the
+// Pipelining: worker threads load, extract and lift the frames after the one the
 // caller asked for while the caller selects and filters, through a bounded window of
 // processed frames. Processing a frame does not depend on which thread does it (features are
 // ordered by their own values, see features.h), so the threaded and the sequential mode hand
 // out identical frames; only the timings differ.
 //
 // The window is bounded by a count of frames, not bytes: a processed frame holds its
-// features and lifted points (~0.5 MB for 800 keypoints), never its images, which are
-// released as soon as the frame is processed.
+// features and lifted points, a small fraction of its images' size, never the images, which
+// are released as soon as the frame is processed.
 #pragma once
 
 #include <condition_variable>

@@ -6,9 +6,20 @@
 
 #include <glog/logging.h>
 
+#include "core/error.h"
 #include "core/stopwatch.h"
 
 namespace ieslam {
+namespace {
+
+// `options`, once they pass Check(): the lifter they configure is built after this.
+const FrontendOptions& Checked(const FrontendOptions& options) {
+  std::string why;
+  if (!options.Check(&why)) throw ConfigError(why);
+  return options;
+}
+
+}  // namespace
 
 bool FrontendOptions::Check(std::string* why) const {
   return features.Check(why) && lifting.Check(why) && matching.Check(why) &&
@@ -16,10 +27,7 @@ bool FrontendOptions::Check(std::string* why) const {
 }
 
 FrameProcessor::FrameProcessor(const Rig& rig, const FrontendOptions& options)
-    : options_(options), lifter_(rig, options.lifting) {
-  std::string why;
-  CHECK(options.Check(&why)) << why;
-}
+    : options_(Checked(options)), lifter_(rig, options.lifting) {}
 
 ProcessedFrame FrameProcessor::Process(const Frame& frame) const {
   ProcessedFrame processed;

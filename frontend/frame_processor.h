@@ -35,6 +35,7 @@ struct ProcessedFrame {
 
 class FrameProcessor {
  public:
+  // Throws ConfigError for options failing Check() or a rig failing Rig::Check().
   FrameProcessor(const Rig& rig, const FrontendOptions& options);
 
   ProcessedFrame Process(const Frame& frame) const;

@@ -8,6 +8,7 @@
 
 #include <glog/logging.h>
 
+#include "core/error.h"
 #include "core/observation.h"
 
 namespace ieslam {
@@ -33,8 +34,8 @@ bool LiftingOptions::Check(std::string* why) const {
 FeatureLifter::FeatureLifter(const Rig& rig, const LiftingOptions& options)
     : rig_(rig), options_(options), T_range_colour_(rig.T_colour_range.inverse()) {
   std::string why;
-  CHECK(options.Check(&why)) << why;
-  CHECK(rig.Check(&why)) << why;
+  if (!options.Check(&why)) throw ConfigError(why);
+  if (!rig.Check(&why)) throw ConfigError("rig '" + rig.name + "': " + why);
 }
 
 std::vector<LiftedPoint> FeatureLifter::Lift(const std::vector<Eigen::Vector2d>& pixels,

@@ -53,6 +53,7 @@ struct LiftedPoint {
 
 class FeatureLifter {
  public:
+  // Throws ConfigError for options failing Check() or a rig failing Rig::Check().
   FeatureLifter(const Rig& rig, const LiftingOptions& options);
 
   // One result per pixel (distorted colour pixel coordinates). `depth` is the range image

@@ -7,6 +7,8 @@
 #include <Eigen/Core>
 #include <opencv2/flann.hpp>
 
+#include "core/error.h"
+
 namespace ieslam {
 namespace {
 
@@ -83,11 +85,8 @@ std::vector<DescriptorMatch> MatchDescriptors(const cv::Mat& query, const cv::Ma
 // draws from std::rand, which cvflann::seed_random seeds. OpenCV's index cannot grow, so the
 // rows added since the last build (the tail) are searched exactly, and the index is rebuilt
 // once the tail passes 1/kTailFraction of the indexed rows: geometric growth bounds the total
-// build cost by a constant times the final build. A build costs ~100 samples x 128 dims per
-// tree node (leaves hold one row), a query of the tail ~128 flops per row; measured with
-// BM_RankDatabase/BM_DatabaseAdd on 150 base frames (CPU ms, loaded machine): a quarter with
-// 4 trees ranked in 48 ms and added a frame in 13 ms, 1/16 with 1 tree in 16 and 7 ms,
-// with the same ATE on 250 7-Scenes frames (1.7 cm).
+// build cost by a constant times the final build. One tree and a 1/16 tail rank as well as
+// more trees and a longer tail at a fraction of the cost (docs/frontend_notes.md).
 struct BaseFrameDatabase::Index {
   cv::Mat storage;  // capacity for rows
   cv::Mat rows;     // every base frame's descriptors, in the order added (in storage)
@@ -98,7 +97,7 @@ struct BaseFrameDatabase::Index {
 BaseFrameDatabase::BaseFrameDatabase(const DatabaseOptions& options)
     : options_(options), index_(new Index) {
   std::string why;
-  CHECK(options.Check(&why)) << why;
+  if (!options.Check(&why)) throw ConfigError(why);
 }
 
 BaseFrameDatabase::~BaseFrameDatabase() = default;
@@ -130,11 +129,8 @@ void BaseFrameDatabase::Add(int frame_id, const cv::Mat& descriptors) {
   index_->indexed = index_->rows.rows;
 }
 
-std::vector<std::pair<int, int>> BaseFrameDatabase::RankFrames(const cv::Mat& query,
-                                                               int max_frames) const {
-  std::vector<std::pair<int, int>> ranked;
-  if (index_->rows.empty() || query.rows == 0) return ranked;
-  const int k = std::min<int>(options_.neighbours, index_->rows.rows);
+std::vector<std::vector<std::pair<float, int>>> BaseFrameDatabase::Nearest(const cv::Mat& query,
+                                                                           int k) const {
   // Per query row, (squared distance, database row) of its k nearest: the index's, then
   // merged with the exact tail's.
   std::vector<std::vector<std::pair<float, int>>> nearest(query.rows);
@@ -153,8 +149,6 @@ std::vector<std::pair<int, int>> BaseFrameDatabase::RankFrames(const cv::Mat& qu
   // The k nearest of each row's candidates, ordered by (distance, row): the index's k and
   // the exact tail's, kept by insertion while the tail is scanned in column blocks (no
   // per-row list of every tail row, no full distance matrix of a long tail).
-  std::vector<std::vector<size_t>> indices(query.rows);
-  std::vector<std::vector<float>> dists(query.rows);
   for (auto& candidates : nearest) std::sort(candidates.begin(), candidates.end());
   const int tail = index_->rows.rows - index_->indexed;
   if (tail > 0) {
@@ -180,6 +174,17 @@ std::vector<std::pair<int, int>> BaseFrameDatabase::RankFrames(const cv::Mat& qu
       }
     }
   }
+  return nearest;
+}
+
+std::vector<std::pair<int, int>> BaseFrameDatabase::RankFrames(const cv::Mat& query,
+                                                               int max_frames) const {
+  std::vector<std::pair<int, int>> ranked;
+  if (index_->rows.empty() || query.rows == 0) return ranked;
+  const int k = std::min<int>(options_.neighbours, index_->rows.rows);
+  const std::vector<std::vector<std::pair<float, int>>> nearest = Nearest(query, k);
+  std::vector<std::vector<size_t>> indices(query.rows);
+  std::vector<std::vector<float>> dists(query.rows);
   for (int i = 0; i < query.rows; ++i) {
     const size_t keep = std::min<size_t>(k, nearest[i].size());
     for (size_t n = 0; n < keep; ++n) {

@@ -2,10 +2,10 @@
 // and a FLANN kd-tree over the whole base-frame database to find which base frames a new
 // frame shares features with (paper §IV: kd-tree matching against earlier frames).
 //
-// Pairwise matching is an exact search done as one matrix product of the descriptor sets:
-// on this machine it costs ~2 ms per 800x800 pair against ~12 ms for FLANN with the index
-// already built (../shared/MEASURED.md). The database is where an index wins: its size
-// grows with every base frame while a query stays ~1000 descriptors.
+// Pairwise matching is an exact search done as one matrix product of the descriptor sets,
+// several times faster than FLANN for two frames' descriptors even with the index already
+// built (docs/frontend_notes.md). The database is where an index wins: its size grows with
+// every base frame while a query stays ~1000 descriptors.
 #pragma once
 
 #include <map>
@@ -48,6 +48,7 @@ struct DatabaseOptions {
 // once, the index is rebuilt when a base frame is added and never per query.
 class BaseFrameDatabase {
  public:
+  // Throws ConfigError for options failing Check().
   explicit BaseFrameDatabase(const DatabaseOptions& options);
   ~BaseFrameDatabase();
   BaseFrameDatabase(const BaseFrameDatabase&) = delete;
@@ -65,6 +66,9 @@ class BaseFrameDatabase {
 
  private:
   struct Index;
+  // Per query row, (squared distance, database row) of its k nearest database rows, nearest
+  // first: the index's approximate neighbours merged with the exact search of the tail.
+  std::vector<std::vector<std::pair<float, int>>> Nearest(const cv::Mat& query, int k) const;
   // Rows added since the last build that are searched exactly before a rebuild is due.
   static constexpr int kMinTailRows = 2048;
   static constexpr int kTailFraction = 16;

@@ -120,9 +120,8 @@ class CorrespondenceNoise {
 
   // The pose minimising sum r^T S^-1 r over `inliers`, S at the rotation of `start`: Ceres'
   // TinySolver (Levenberg-Marquardt, automatic derivatives) on a correction to `start`, which
-  // converges in a few steps from Arun's pose. A ceres::Problem with EigenQuaternionManifold
-  // gave the same poses but cost ~0.5 ms more per registration, set-up for a 6-parameter fit:
-  // ~8 ms per frame when `--selector all` registers each frame against several base frames.
+  // converges in a few steps from Arun's pose. A ceres::Problem gives the same poses, but
+  // its set-up costs more than this 6-parameter fit itself (docs/frontend_notes.md).
   Eigen::Isometry3d WeightedFit(const Eigen::Isometry3d& start,
                                 const std::vector<Eigen::Vector3d>& a,
                                 const std::vector<Eigen::Vector3d>& b,

@@ -41,12 +41,11 @@ struct RegistrationOptions {
   // Whether RegisterFrames hands the lifted points' covariances to the registration (off:
   // the isotropic gate and the unweighted fit alone). Off by default: the weighting is only
   // as good as the rig's noise model. Where the model is exact (the synthetic rigs) it
-  // halves the trajectory error of the camera + time-of-flight `pair` rig (its isotropic
-  // gate is ~10 cm wide at 2 m and passes wrong matches tens of pixels off sideways); on
-  // 7-Scenes, whose Kinect model (1 px, sigma_d from the literature) understates the error
-  // of near points (colour and depth are neither registered nor synchronised), the gate
-  // trades near points with 2-3 cm residuals for far ones and the ATE got worse in 5 of 6
-  // runs (README, "When the noise model is trusted").
+  // helps most the camera + time-of-flight `pair` rig, whose isotropic gate is wide at its
+  // range noise and passes wrong matches far off sideways; where the model understates the
+  // error of near points (7-Scenes: colour and depth neither registered nor synchronised)
+  // the gate trades near points for far ones and the trajectory gets worse (README, "When
+  // the noise model is trusted"; the runs in docs/frontend_notes.md).
   bool use_point_covariances = false;
 
   bool Check(std::string* why) const;

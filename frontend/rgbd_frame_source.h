@@ -28,8 +28,8 @@ struct RgbdSourceOptions {
   DatabaseOptions database;
   // Base frames ranked by the database that are registered exactly; the last base frame is
   // always tried as well. Every further base frame that registers adds its observations of
-  // the map's features (multi-view constraints and loop closures) at ~2 ms a registration;
-  // on 7-Scenes going from 4 to 8 cut the ATE from 3.1 to 2.6 cm.
+  // the map's features (multi-view constraints and loop closures) for the cost of one more
+  // registration (8 against 4: docs/frontend_notes.md).
   int max_base_candidates = 8;
   int max_new_features_per_frame = 100;
   // A base frame other than the best one adds its inliers' observations only when its own

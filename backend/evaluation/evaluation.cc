@@ -60,23 +60,6 @@ double RotationAngle(const Eigen::Matrix3d& R) {
   return std::acos(std::min(1.0, std::max(-1.0, (R.trace() - 1.0) / 2.0)));
 }
 
-double Median(std::vector<double> values) {
-  CHECK(!values.empty());
-  const std::size_t n = values.size();
-  std::sort(values.begin(), values.end());
-  return n % 2 == 1 ? values[n / 2] : (values[n / 2 - 1] + values[n / 2]) / 2.0;
-}
-
-ErrorStats ScaleStats(ErrorStats stats, double factor) {
-  stats.rmse *= factor;
-  stats.mean *= factor;
-  stats.median *= factor;
-  stats.std *= factor;
-  stats.min *= factor;
-  stats.max *= factor;
-  return stats;
-}
-
 }  // namespace
 
 bool ParseDeltaUnit(const std::string& text, DeltaUnit* unit) {
@@ -112,73 +95,6 @@ bool EvaluationOptions::Check(std::string* why) const {
     return fail("delta_unit must be seconds or frames");
   }
   return true;
-}
-
-ErrorStats ComputeErrorStats(const std::vector<double>& errors) {
-  CHECK(!errors.empty()) << "statistics of an empty error list";
-  const double n = static_cast<double>(errors.size());
-  ErrorStats stats;
-  stats.count = errors.size();
-  double sum = 0.0;
-  double sum_sq = 0.0;
-  for (double e : errors) {
-    sum += e;
-    sum_sq += e * e;
-  }
-  stats.rmse = std::sqrt(sum_sq / n);
-  stats.mean = sum / n;
-  stats.median = Median(errors);
-  // Two passes, as numpy.std: sum of squares minus n mean^2 cancels for tight errors.
-  double var = 0.0;
-  for (double e : errors) var += (e - stats.mean) * (e - stats.mean);
-  stats.std = std::sqrt(var / n);
-  const auto [lo, hi] = std::minmax_element(errors.begin(), errors.end());
-  stats.min = *lo;
-  stats.max = *hi;
-  return stats;
-}
-
-std::vector<StampMatch> AssociateStamps(const std::vector<double>& first,
-                                        const std::vector<double>& second, double offset,
-                                        double max_diff) {
-  CHECK(std::is_sorted(first.begin(), first.end()));
-  CHECK(std::is_sorted(second.begin(), second.end()));
-  struct Candidate {
-    double diff;
-    std::size_t a;
-    std::size_t b;
-  };
-  // associate.py tests every (a, b); with b sorted, fl(a - fl(b + offset)) is monotone in b,
-  // so the b passing the same floating-point test form one contiguous run per a.
-  std::vector<Candidate> candidates;
-  for (std::size_t a = 0; a < first.size(); ++a) {
-    const double t = first[a];
-    auto start = std::partition_point(second.begin(), second.end(),
-                                      [&](double b) { return !(t - (b + offset) < max_diff); });
-    for (auto it = start; it != second.end(); ++it) {
-      const double diff = std::abs(t - (*it + offset));
-      if (!(diff < max_diff)) break;
-      candidates.push_back({diff, a, static_cast<std::size_t>(it - second.begin())});
-    }
-  }
-  // As TUM: Python sorts the tuples (diff, a, b), so ties go to the smaller stamps.
-  std::sort(candidates.begin(), candidates.end(), [](const Candidate& x, const Candidate& y) {
-    if (x.diff != y.diff) return x.diff < y.diff;
-    if (x.a != y.a) return x.a < y.a;
-    return x.b < y.b;
-  });
-  std::vector<bool> first_used(first.size(), false);
-  std::vector<bool> second_used(second.size(), false);
-  std::vector<StampMatch> matches;
-  for (const Candidate& c : candidates) {
-    if (first_used[c.a] || second_used[c.b]) continue;
-    first_used[c.a] = true;
-    second_used[c.b] = true;
-    matches.push_back({c.a, c.b, first[c.a], second[c.b]});
-  }
-  std::sort(matches.begin(), matches.end(),
-            [](const StampMatch& x, const StampMatch& y) { return x.first_index < y.first_index; });
-  return matches;
 }
 
 std::size_t FindClosestIndex(const std::vector<double>& list, double value) {
@@ -352,7 +268,7 @@ RpeResult ComputeRpe(const Trajectory& gt, const Trajectory& est, const Evaluati
   }
   result.translation = ComputeErrorStats(trans_errors);
   // As TUM: statistics of the radians, converted afterwards.
-  result.rotation = ScaleStats(ComputeErrorStats(rot_errors), kRadToDeg);
+  result.rotation = ScaleErrorStats(ComputeErrorStats(rot_errors), kRadToDeg);
   return result;
 }
 
@@ -370,17 +286,6 @@ EvaluationResult EvaluateTrajectories(const Trajectory& gt, const Trajectory& es
     aligned.T_w_c = result.ate.T_gt_est * ScaleTranslation(pose.T_w_c, options.scale);
     result.aligned_estimate.push_back(aligned);
   }
-  return result;
-}
-
-EvaluationResult EvaluateTrajectoryFiles(const std::string& gt_path, const std::string& est_path,
-                                         const EvaluationOptions& options) {
-  RequireValidOptions(options);
-  std::vector<std::string> warnings;
-  const Trajectory gt = ReadTumTrajectoryForEvaluation(gt_path, &warnings);
-  const Trajectory est = ReadTumTrajectoryForEvaluation(est_path, &warnings);
-  EvaluationResult result = EvaluateTrajectories(gt, est, options, gt_path, est_path);
-  result.warnings = std::move(warnings);
   return result;
 }
 

@@ -6,12 +6,13 @@
 #pragma once
 
 #include <cstddef>
-#include <istream>
 #include <string>
 #include <vector>
 
 #include <Eigen/Geometry>
 
+#include "backend/evaluation/error_stats.h"
+#include "core/timestamp_association.h"
 #include "core/trajectory.h"
 
 namespace ieslam {
@@ -38,35 +39,6 @@ struct EvaluationOptions {
 
   bool Check(std::string* why) const;
 };
-
-// Summary of a list of errors, as evaluate_ate.py / evaluate_rpe.py print it: numpy's median
-// (mean of the two middle values for an even count) and population std (ddof = 0).
-struct ErrorStats {
-  std::size_t count = 0;
-  double rmse = 0.0;
-  double mean = 0.0;
-  double median = 0.0;
-  double std = 0.0;
-  double min = 0.0;
-  double max = 0.0;
-};
-// CHECK-fails on an empty list.
-ErrorStats ComputeErrorStats(const std::vector<double>& errors);
-
-// One association: indices into the two stamp lists and the stamps themselves.
-struct StampMatch {
-  std::size_t first_index = 0;
-  std::size_t second_index = 0;
-  double first_stamp = 0.0;
-  double second_stamp = 0.0;
-};
-
-// associate.py: candidate pairs (a, b) with |a - (b + offset)| < max_diff, taken greedily in
-// order of increasing |a - (b + offset)| (ties by a, then b) while neither stamp is used;
-// the result is sorted by the first stamp. Both lists must be sorted ascending (CHECK).
-std::vector<StampMatch> AssociateStamps(const std::vector<double>& first,
-                                        const std::vector<double>& second, double offset,
-                                        double max_diff);
 
 // evaluate_rpe.py's find_closest_index: a binary search over the sorted `list` that keeps the
 // closest element it visits (the first visited wins a tie). CHECK-fails on an empty list.
@@ -135,38 +107,11 @@ RpeResult ComputeRpe(const Trajectory& gt, const Trajectory& est, const Evaluati
                      const std::string& gt_name = "ground truth",
                      const std::string& est_name = "estimate");
 
-// ATE, RPE and the aligned estimate.
+// ATE, RPE and the aligned estimate. The trajectories' files are read, and the result
+// written, by backend/evaluation/evaluation_io.h.
 EvaluationResult EvaluateTrajectories(const Trajectory& gt, const Trajectory& est,
                                       const EvaluationOptions& options,
                                       const std::string& gt_name = "ground truth",
                                       const std::string& est_name = "estimate");
-// Reads a TUM trajectory as TUM's scripts do, which ReadTumTrajectory (strictly increasing
-// stamps) is too strict for: lines may come in any order, and a repeated timestamp keeps its
-// last line (the scripts store poses in a dict); each file with repeats adds a line to
-// `warnings`. Malformed lines, non-finite values and far-from-unit quaternions throw DataError
-// naming file and line, as in ReadTumTrajectory.
-Trajectory ReadTumTrajectoryForEvaluation(const std::string& path,
-                                          std::vector<std::string>* warnings = nullptr);
-// The same from a stream; `path` names it in messages.
-Trajectory ParseTumTrajectoryForEvaluation(std::istream& in, const std::string& path,
-                                           std::vector<std::string>* warnings = nullptr);
-// `trajectory` as ReadTumTrajectoryForEvaluation reads it back from the TUM file
-// WriteTumTrajectory makes of it (values rounded as the file prints them), without a file:
-// what a report's ATE must be computed on to equal `ieslam evaluate` on the written files.
-// `name` names it in messages.
-Trajectory AsReadBackFromTum(const Trajectory& trajectory, const std::string& name);
-
-// Reads both files (ReadTumTrajectoryForEvaluation) and evaluates; errors name the files.
-EvaluationResult EvaluateTrajectoryFiles(const std::string& gt_path, const std::string& est_path,
-                                         const EvaluationOptions& options);
-
-// The `key value` lines of `ieslam evaluate` (CLI.md): ate.pairs, ate.rmse, ate.mean,
-// ate.median, ate.std, ate.min, ate.max, rpe.pairs, rpe.trans.rmse, rpe.rot.rmse (degrees);
-// 6 decimals, one line each, newline-terminated.
-std::string FormatEvaluation(const EvaluationResult& result);
-
-// OUT/evaluation.json: {"ate": {"pairs", "rmse", "mean", "median", "std", "min", "max"},
-// "rpe": {"pairs", "trans": {...}, "rot": {...}}, "options": {...}}; numbers round-trip.
-std::string EvaluationToJson(const EvaluationResult& result);
 
 }  // namespace ieslam

@@ -1,58 +1,28 @@
-// The file side of the evaluation (declared in backend/evaluation/evaluation.h): reading
-// trajectories as TUM's scripts read them, and the text and JSON forms of a result. The JSON is
-// written by hand: it is one fixed, flat shape and does not justify a dependency.
+#include "backend/evaluation/evaluation_io.h"
+
 #include <algorithm>
-#include <charconv>
-#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
-#include "backend/evaluation/evaluation.h"
 #include "core/error.h"
 #include "core/file_util.h"
+#include "core/json.h"
 
 namespace ieslam {
 namespace {
 
-// Shortest text that reads back to the same double; JSON has no NaN or infinity, so those
-// (which the evaluation does not produce) become null rather than an unreadable file.
-std::string JsonNumber(double value) {
-  if (!std::isfinite(value)) return "null";
-  char buffer[64];
-  const auto [end, ec] = std::to_chars(buffer, buffer + sizeof(buffer), value);
-  if (ec != std::errc()) return "null";
-  return std::string(buffer, end);
-}
-
-std::string JsonString(const std::string& text) {
-  std::string out = "\"";
-  for (char c : text) {
-    if (c == '"' || c == '\\') {
-      out += '\\';
-      out += c;
-    } else if (static_cast<unsigned char>(c) < 0x20) {
-      char escaped[8];
-      std::snprintf(escaped, sizeof(escaped), "\\u%04x", static_cast<unsigned>(c));
-      out += escaped;
-    } else {
-      out += c;
-    }
-  }
-  return out + "\"";
-}
-
-// The six statistics as members of an object that is already open; `indent` is the
-// members' indentation.
-void WriteStatsMembers(const ErrorStats& stats, const std::string& indent, std::ostream& out) {
-  out << indent << "\"rmse\": " << JsonNumber(stats.rmse) << ",\n"
-      << indent << "\"mean\": " << JsonNumber(stats.mean) << ",\n"
-      << indent << "\"median\": " << JsonNumber(stats.median) << ",\n"
-      << indent << "\"std\": " << JsonNumber(stats.std) << ",\n"
-      << indent << "\"min\": " << JsonNumber(stats.min) << ",\n"
-      << indent << "\"max\": " << JsonNumber(stats.max) << "\n";
+// The six statistics of `stats` as members of `object`.
+void SetStatsMembers(const ErrorStats& stats, Json* object) {
+  object->Set("rmse", Json::BareDouble(stats.rmse))
+      .Set("mean", Json::BareDouble(stats.mean))
+      .Set("median", Json::BareDouble(stats.median))
+      .Set("std", Json::BareDouble(stats.std))
+      .Set("min", Json::BareDouble(stats.min))
+      .Set("max", Json::BareDouble(stats.max));
 }
 
 void AppendLine(const std::string& key, double value, std::string* out) {
@@ -113,6 +83,19 @@ Trajectory AsReadBackFromTum(const Trajectory& trajectory, const std::string& na
   return ParseTumTrajectoryForEvaluation(in, name);
 }
 
+EvaluationResult EvaluateTrajectoryFiles(const std::string& gt_path, const std::string& est_path,
+                                         const EvaluationOptions& options) {
+  // Bad options are reported before the files are read, as by ComputeAte.
+  std::string why;
+  if (!options.Check(&why)) throw ConfigError("evaluation options: " + why);
+  std::vector<std::string> warnings;
+  const Trajectory gt = ReadTumTrajectoryForEvaluation(gt_path, &warnings);
+  const Trajectory est = ReadTumTrajectoryForEvaluation(est_path, &warnings);
+  EvaluationResult result = EvaluateTrajectories(gt, est, options, gt_path, est_path);
+  result.warnings = std::move(warnings);
+  return result;
+}
+
 std::string FormatEvaluation(const EvaluationResult& result) {
   std::string out;
   out += "ate.pairs " + std::to_string(result.ate.translation.count) + "\n";
@@ -130,22 +113,24 @@ std::string FormatEvaluation(const EvaluationResult& result) {
 
 std::string EvaluationToJson(const EvaluationResult& result) {
   const EvaluationOptions& options = result.options;
-  std::ostringstream out;
-  out << "{\n  \"ate\": {\n    \"pairs\": " << result.ate.translation.count << ",\n";
-  WriteStatsMembers(result.ate.translation, "    ", out);
-  out << "  },\n  \"rpe\": {\n    \"pairs\": " << result.rpe.translation.count << ",\n"
-      << "    \"trans\": {\n";
-  WriteStatsMembers(result.rpe.translation, "      ", out);
-  out << "    },\n    \"rot\": {\n";
-  WriteStatsMembers(result.rpe.rotation, "      ", out);
-  out << "    }\n  },\n  \"options\": {\n"
-      << "    \"max_diff_s\": " << JsonNumber(options.max_diff_s) << ",\n"
-      << "    \"offset_s\": " << JsonNumber(options.offset_s) << ",\n"
-      << "    \"scale\": " << JsonNumber(options.scale) << ",\n"
-      << "    \"delta\": " << JsonNumber(options.delta) << ",\n"
-      << "    \"delta_unit\": " << JsonString(DeltaUnitName(options.delta_unit)) << "\n"
-      << "  }\n}\n";
-  return out.str();
+  Json ate = Json::Object();
+  ate.Set("pairs", result.ate.translation.count);
+  SetStatsMembers(result.ate.translation, &ate);
+  Json trans = Json::Object();
+  SetStatsMembers(result.rpe.translation, &trans);
+  Json rot = Json::Object();
+  SetStatsMembers(result.rpe.rotation, &rot);
+  Json rpe = Json::Object();
+  rpe.Set("pairs", result.rpe.translation.count).Set("trans", trans).Set("rot", rot);
+  Json json_options = Json::Object();
+  json_options.Set("max_diff_s", Json::BareDouble(options.max_diff_s))
+      .Set("offset_s", Json::BareDouble(options.offset_s))
+      .Set("scale", Json::BareDouble(options.scale))
+      .Set("delta", Json::BareDouble(options.delta))
+      .Set("delta_unit", DeltaUnitName(options.delta_unit));
+  Json json = Json::Object();
+  json.Set("ate", ate).Set("rpe", rpe).Set("options", json_options);
+  return json.Dump() + "\n";
 }
 
 }  // namespace ieslam

@@ -17,7 +17,7 @@ double Mahalanobis(const Vector6d& d, const Matrix6d& P) {
   return std::sqrt(d.dot(llt.solve(d)));
 }
 
-Json StatsToJson(const SummaryStats& stats) {
+Json StatsToJson(const ErrorStats& stats) {
   return Json::Object()
       .Set("count", stats.count)
       .Set("rmse", stats.rmse)
@@ -26,24 +26,6 @@ Json StatsToJson(const SummaryStats& stats) {
 }
 
 }  // namespace
-
-SummaryStats Summarize(const std::vector<double>& values) {
-  SummaryStats stats;
-  double sum = 0.0;
-  double sum_sq = 0.0;
-  for (double v : values) {
-    if (!std::isfinite(v)) continue;
-    ++stats.count;
-    sum += v;
-    sum_sq += v * v;
-    stats.max = std::max(stats.max, v);
-  }
-  if (stats.count > 0) {
-    stats.mean = sum / stats.count;
-    stats.rmse = std::sqrt(sum_sq / stats.count);
-  }
-  return stats;
-}
 
 FilterSmootherComparison CompareFilterToSmoother(const SlamEstimate& filter,
                                                  const SlamEstimate& smoother) {
@@ -80,9 +62,9 @@ FilterSmootherComparison CompareFilterToSmoother(const SlamEstimate& filter,
   for (const auto& [frame_id, pose] : smoother.poses) {
     if (filter.poses.count(frame_id) == 0) ++comparison.frames_only_in_smoother;
   }
-  comparison.translation_m = Summarize(translations);
-  comparison.rotation_deg = Summarize(rotations);
-  comparison.mahalanobis = Summarize(distances);
+  comparison.translation_m = ComputeFiniteErrorStats(translations);
+  comparison.rotation_deg = ComputeFiniteErrorStats(rotations);
+  comparison.mahalanobis = ComputeFiniteErrorStats(distances);
   comparison.mean_squared_mahalanobis =
       num_squared > 0 ? sum_squared / num_squared : std::numeric_limits<double>::quiet_NaN();
 
@@ -91,7 +73,7 @@ FilterSmootherComparison CompareFilterToSmoother(const SlamEstimate& filter,
     const auto it = smoother.features.find(feature_id);
     if (it != smoother.features.end()) feature_distances.push_back((p_f - it->second).norm());
   }
-  comparison.feature_m = Summarize(feature_distances);
+  comparison.feature_m = ComputeFiniteErrorStats(feature_distances);
   return comparison;
 }
 

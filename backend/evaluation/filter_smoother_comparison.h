@@ -1,6 +1,7 @@
-// Filter versus smoothing (METHOD.md §6): how far the information filter's estimate of the
-// selected poses and features lies from the bundle adjustment's, and whether that distance
-// is within what the filter's own covariance claims.
+// Filter versus smoothing, the check ieslam adds to the paper's filter: how far the
+// information filter's estimate of the selected poses and features lies from the bundle
+// adjustment's over the same observations, and whether that distance is within what the
+// filter's own covariance claims.
 //
 // The filter linearises each observation once, at the estimate of its time; the bundle
 // adjustment relinearises everything to convergence. Differences far beyond the filter's
@@ -14,6 +15,7 @@
 
 #include <Eigen/Core>
 
+#include "backend/evaluation/error_stats.h"
 #include "backend/slam_estimate.h"
 #include "core/json.h"
 #include "core/pose.h"
@@ -30,24 +32,17 @@ struct FramePoseComparison {
   double mahalanobis = 0.0;
 };
 
-struct SummaryStats {
-  int count = 0;
-  double rmse = 0.0;
-  double mean = 0.0;
-  double max = 0.0;
-};
-// Of the finite values (NaN skipped); zeros when none.
-SummaryStats Summarize(const std::vector<double>& values);
-
+// The summaries are ComputeFiniteErrorStats of the per-frame (per-feature) values: a frame
+// without a usable covariance has a NaN Mahalanobis distance, which they skip.
 struct FilterSmootherComparison {
   std::vector<FramePoseComparison> frames;  // frames both estimates hold, by id
-  SummaryStats translation_m;
-  SummaryStats rotation_deg;
-  SummaryStats mahalanobis;
+  ErrorStats translation_m;
+  ErrorStats rotation_deg;
+  ErrorStats mahalanobis;
   // Mean of d^T P^-1 d over the frames: ~6 when the filter's covariance is right and the
   // smoother is much closer to the truth than the filter.
   double mean_squared_mahalanobis = 0.0;
-  SummaryStats feature_m;  // |p_filter - p_smoother| over the common features
+  ErrorStats feature_m;  // |p_filter - p_smoother| over the common features
   int frames_only_in_filter = 0;
   int frames_only_in_smoother = 0;
 };
@@ -55,6 +50,7 @@ struct FilterSmootherComparison {
 FilterSmootherComparison CompareFilterToSmoother(const SlamEstimate& filter,
                                                  const SlamEstimate& smoother);
 
+// Each summary as {count, rmse, mean, max}; the frames' comparisons when `per_frame`.
 Json ComparisonToJson(const FilterSmootherComparison& comparison, bool per_frame = true);
 
 }  // namespace ieslam

@@ -8,6 +8,8 @@
 
 #include <glog/logging.h>
 
+#include "core/error.h"
+
 namespace ieslam {
 namespace {
 
@@ -110,8 +112,8 @@ bool RangeSensorModel::Check(std::string* why) const {
 RenderedView RenderView(const SyntheticScene& scene, const PinholeCamera& camera,
                         const Eigen::Isometry3d& T_w_c, const RenderOptions& options) {
   std::string why;
-  CHECK(options.Check(&why)) << why;
-  CHECK(camera.Check(&why)) << why;
+  if (!options.Check(&why)) throw ConfigError("render options: " + why);
+  if (!camera.Check(&why)) throw ConfigError("rendered camera: " + why);
   const int threads = ThreadCount(options.threads);
   ShadingContext context;
   context.scene = &scene;
@@ -170,8 +172,8 @@ RenderedView RenderView(const SyntheticScene& scene, const PinholeCamera& camera
 cv::Mat SimulateRangeImage(const RenderedView& view, const RangeImager& imager,
                            const RangeSensorModel& model, std::mt19937* rng) {
   std::string why;
-  CHECK(model.Check(&why)) << why;
-  CHECK(imager.Check(&why)) << why;
+  if (!model.Check(&why)) throw ConfigError("range sensor model: " + why);
+  if (!imager.Check(&why)) throw ConfigError("range imager: " + why);
   CHECK(rng != nullptr);
   CHECK_EQ(view.z_m.rows, imager.camera.height);
   CHECK_EQ(view.z_m.cols, imager.camera.width);

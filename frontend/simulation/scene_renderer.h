@@ -44,7 +44,8 @@ struct RenderedView {
   cv::Mat surface;        // CV_32SC1 surface index hit at the pixel centre (-1: none)
 };
 
-// Renders the view of `camera` at pose T_w_c. CHECK-fails on options failing Check().
+// Renders the view of `camera` at pose T_w_c. Throws ConfigError for options or a camera
+// failing their Check().
 RenderedView RenderView(const SyntheticScene& scene, const PinholeCamera& camera,
                         const Eigen::Isometry3d& T_w_c, const RenderOptions& options);
 
@@ -61,7 +62,8 @@ struct RangeSensorModel {
 // imager.depth_kind, plus noise N(0, imager.noise.Sigma(d)^2) (when enabled), rounded to
 // imager.depth_scale; 0 (no measurement) for grazing pixels, for no hit, and outside
 // [min_range_m, max_range_m] (judged on the noise-free value, as a sensor's hardware gate
-// would be) or past the 16-bit range.
+// would be) or past the 16-bit range. Throws ConfigError for a model or an imager failing
+// their Check().
 cv::Mat SimulateRangeImage(const RenderedView& view, const RangeImager& imager,
                            const RangeSensorModel& model, std::mt19937* rng);
 

@@ -6,6 +6,8 @@
 
 #include <glog/logging.h>
 
+#include "core/error.h"
+
 namespace ieslam {
 namespace {
 
@@ -135,7 +137,7 @@ bool PaperTrajectoryOptions::Check(std::string* why) const {
 
 PaperTrajectory BuildPaperTrajectory(const PaperTrajectoryOptions& o) {
   std::string why;
-  CHECK(o.Check(&why)) << "PaperTrajectoryOptions: " << why;
+  if (!o.Check(&why)) throw ConfigError("PaperTrajectoryOptions: " + why);
 
   PaperTrajectory trajectory;
   trajectory.vertices = BuildPolyline(o);

@@ -74,7 +74,8 @@ struct PaperTrajectory {
   double spacing_m = 0.0;  // arc length between consecutive poses
 };
 
-// Deterministic: the path has no random part. CHECK-fails on options that fail Check().
+// Deterministic: the path has no random part. Throws ConfigError for options that fail
+// Check().
 PaperTrajectory BuildPaperTrajectory(const PaperTrajectoryOptions& options);
 
 // Heading of the camera's optical axis projected on the horizontal plane, radians in

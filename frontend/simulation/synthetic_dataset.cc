@@ -168,7 +168,7 @@ SyntheticFrame RenderSyntheticFrame(const SyntheticScene& scene, const Rig& rig,
                                     const Eigen::Isometry3d& T_w_c,
                                     const SyntheticDatasetOptions& options, int index) {
   std::string why;
-  CHECK(options.Check(&why)) << why;
+  if (!options.Check(&why)) throw ConfigError("synthetic dataset options: " + why);
   SyntheticFrame frame;
   frame.timestamp = SyntheticTimestamp(options, index);
   frame.T_w_c = T_w_c;
@@ -188,15 +188,34 @@ SyntheticFrame RenderSyntheticFrame(const SyntheticScene& scene, const Rig& rig,
   return frame;
 }
 
-int WriteSyntheticDataset(const std::string& directory, const SyntheticDatasetOptions& options,
-                          const std::function<bool()>& stop) {
-  std::string why;
-  if (!options.Check(&why)) throw ConfigError("synthetic dataset options: " + why);
-  const SyntheticScene scene(options.scene);
-  const Rig rig = SyntheticRig(options.sensor, options.resolution_scale);
-  const std::vector<Eigen::Isometry3d> poses = BuildSyntheticTrajectory(
-      options.trajectory, std::max(options.frames, options.frames_per_loop));
-  for (int i = 0; i < options.frames; ++i) {
+namespace {
+
+// Where a dataset's files go: the rgbd (TUM) or the pair layout.
+struct DatasetLayout {
+  std::string directory;
+  bool rgbd = true;
+  std::string colour_dir;
+  std::string range_dir;
+
+  DatasetLayout(const std::string& dir, SyntheticSensor sensor)
+      : directory(dir),
+        rgbd(sensor == SyntheticSensor::kRgbd),
+        colour_dir(rgbd ? "rgb" : "colour"),
+        range_dir(rgbd ? "depth" : "range") {}
+
+  // Frame i's colour and range images.
+  std::pair<std::string, std::string> ImagePaths(const SyntheticDatasetOptions& options,
+                                                 int i) const {
+    const std::string stamp = StampString(SyntheticTimestamp(options, i));
+    return std::make_pair(JoinPath(directory, colour_dir + "/" + stamp + ".png"),
+                          JoinPath(directory, range_dir + "/" + stamp + ".png"));
+  }
+};
+
+// Throws ConfigError when a camera of the first `frames` poses is not in the free space.
+void RequireFreeSpace(const SyntheticScene& scene, const Rig& rig,
+                      const std::vector<Eigen::Isometry3d>& poses, int frames) {
+  for (int i = 0; i < frames; ++i) {
     const Eigen::Vector3d p = poses[i].translation();
     const Eigen::Vector3d p_range = (poses[i] * rig.T_colour_range).translation();
     if (!scene.IsFreeSpace(p, 0.3) || !scene.IsFreeSpace(p_range, 0.3)) {
@@ -207,26 +226,16 @@ int WriteSyntheticDataset(const std::string& directory, const SyntheticDatasetOp
       throw ConfigError(s.str());
     }
   }
+}
 
-  const bool rgbd = options.sensor == SyntheticSensor::kRgbd;
-  const std::string colour_dir = rgbd ? "rgb" : "colour";
-  const std::string range_dir = rgbd ? "depth" : "range";
-  MakeDirectory(directory);
-  MakeDirectory(JoinPath(directory, colour_dir));
-  MakeDirectory(JoinPath(directory, range_dir));
-
-  std::ostringstream colour_list, range_list;
-  if (rgbd) {
-    colour_list << "# color images\n# file: 'ieslam synthetic rgbd'\n# timestamp filename\n";
-    range_list << "# depth maps\n# file: 'ieslam synthetic rgbd'\n# timestamp filename\n";
-  } else {
-    colour_list << "# colour images\n# file: 'ieslam synthetic pair'\n# timestamp filename\n";
-    range_list << "# range images (radial, 16-bit mm)\n# file: 'ieslam synthetic pair'\n"
-                  "# timestamp filename\n";
-  }
-  // Frames are independent (each seeds its own noise), so whole frames go to the threads:
-  // rendering, noise and PNG encoding all run in parallel, and the files are the same for
-  // any thread count.
+// Renders and writes the images of every frame until `stop`; returns which were written.
+// Frames are independent (each seeds its own noise), so whole frames go to the threads:
+// rendering, noise and PNG encoding all run in parallel, and the files are the same for
+// any thread count.
+std::vector<char> WriteImages(const DatasetLayout& layout, const SyntheticScene& scene,
+                              const Rig& rig, const std::vector<Eigen::Isometry3d>& poses,
+                              const SyntheticDatasetOptions& options,
+                              const std::function<bool()>& stop) {
   SyntheticDatasetOptions single_thread = options;
   single_thread.threads = 1;
   const int workers = std::min(
@@ -235,17 +244,11 @@ int WriteSyntheticDataset(const std::string& directory, const SyntheticDatasetOp
                           : std::max(1, static_cast<int>(std::thread::hardware_concurrency())));
   std::vector<std::exception_ptr> errors(workers);
   std::vector<char> written(options.frames, 0);  // each entry set by one worker only
-  // Frame i's colour and range images.
-  const auto image_paths = [&](int i) {
-    const std::string stamp = StampString(SyntheticTimestamp(options, i));
-    return std::make_pair(JoinPath(directory, colour_dir + "/" + stamp + ".png"),
-                          JoinPath(directory, range_dir + "/" + stamp + ".png"));
-  };
   auto work = [&](int k) {
     try {
       for (int i = k; i < options.frames && !(stop && stop()); i += workers) {
         const SyntheticFrame frame = RenderSyntheticFrame(scene, rig, poses[i], single_thread, i);
-        const auto [colour_path, range_path] = image_paths(i);
+        const auto [colour_path, range_path] = layout.ImagePaths(options, i);
         WritePng(colour_path, frame.colour);
         WritePng(range_path, frame.range_raw);
         written[i] = 1;
@@ -261,19 +264,16 @@ int WriteSyntheticDataset(const std::string& directory, const SyntheticDatasetOp
   for (const std::exception_ptr& error : errors) {
     if (error) std::rethrow_exception(error);
   }
+  return written;
+}
 
-  // Stopped, the dataset ends before the first frame a worker did not write. Its poses are
-  // still those of the loop `options` asked for, which synthetic.txt must then say.
-  SyntheticDatasetOptions as_written = options;
-  as_written.frames =
-      static_cast<int>(std::find(written.begin(), written.end(), 0) - written.begin());
-  if (as_written.frames < options.frames) {
-    as_written.frames_per_loop = std::max(options.frames, options.frames_per_loop);
-  }
-  // Frames another worker wrote past that point are not part of it: no image is left unlisted.
-  for (int i = as_written.frames; i < options.frames; ++i) {
+// Removes the images of frames from `first` on that a worker wrote before it stopped: no
+// image is left unlisted.
+void RemoveImagesFrom(int first, const std::vector<char>& written, const DatasetLayout& layout,
+                      const SyntheticDatasetOptions& options) {
+  for (int i = first; i < static_cast<int>(written.size()); ++i) {
     if (!written[i]) continue;
-    const auto [colour_path, range_path] = image_paths(i);
+    const auto [colour_path, range_path] = layout.ImagePaths(options, i);
     for (const std::string& path : {colour_path, range_path}) {
       std::error_code error;
       std::filesystem::remove(path, error);
@@ -283,21 +283,71 @@ int WriteSyntheticDataset(const std::string& directory, const SyntheticDatasetOp
       }
     }
   }
+}
+
+// The lists, ground truth, calibration and synthetic.txt of the frames of `as_written`,
+// the lists last.
+void WriteListsAndMetadata(const DatasetLayout& layout, const Rig& rig,
+                           const std::vector<Eigen::Isometry3d>& poses,
+                           const SyntheticDatasetOptions& options,
+                           const SyntheticDatasetOptions& as_written) {
+  std::ostringstream colour_list, range_list;
+  if (layout.rgbd) {
+    colour_list << "# color images\n# file: 'ieslam synthetic rgbd'\n# timestamp filename\n";
+    range_list << "# depth maps\n# file: 'ieslam synthetic rgbd'\n# timestamp filename\n";
+  } else {
+    colour_list << "# colour images\n# file: 'ieslam synthetic pair'\n# timestamp filename\n";
+    range_list << "# range images (radial, 16-bit mm)\n# file: 'ieslam synthetic pair'\n"
+                  "# timestamp filename\n";
+  }
   Trajectory ground_truth;
   for (int i = 0; i < as_written.frames; ++i) {
     const double t = SyntheticTimestamp(options, i);
     const std::string stamp = StampString(t);
-    colour_list << stamp << " " << colour_dir << "/" << stamp << ".png\n";
-    range_list << stamp << " " << range_dir << "/" << stamp << ".png\n";
+    colour_list << stamp << " " << layout.colour_dir << "/" << stamp << ".png\n";
+    range_list << stamp << " " << layout.range_dir << "/" << stamp << ".png\n";
     ground_truth.push_back({t, poses[i]});
   }
+  const std::string& directory = layout.directory;
   WriteCalibration(JoinPath(directory, "calib.yaml"), rig);
   WriteTumTrajectory(JoinPath(directory, "groundtruth.txt"), ground_truth,
                      " ground truth (exact) of the colour camera, T_w_c: ieslam synthetic " +
                          std::string(ToString(options.sensor)));
   WriteTextAtomically(JoinPath(directory, "synthetic.txt"), FormatSyntheticOptions(as_written));
-  WriteTextAtomically(JoinPath(directory, rgbd ? "rgb.txt" : "colour.txt"), colour_list.str());
-  WriteTextAtomically(JoinPath(directory, rgbd ? "depth.txt" : "range.txt"), range_list.str());
+  WriteTextAtomically(JoinPath(directory, layout.rgbd ? "rgb.txt" : "colour.txt"),
+                      colour_list.str());
+  WriteTextAtomically(JoinPath(directory, layout.rgbd ? "depth.txt" : "range.txt"),
+                      range_list.str());
+}
+
+}  // namespace
+
+int WriteSyntheticDataset(const std::string& directory, const SyntheticDatasetOptions& options,
+                          const std::function<bool()>& stop) {
+  std::string why;
+  if (!options.Check(&why)) throw ConfigError("synthetic dataset options: " + why);
+  const SyntheticScene scene(options.scene);
+  const Rig rig = SyntheticRig(options.sensor, options.resolution_scale);
+  const std::vector<Eigen::Isometry3d> poses = BuildSyntheticTrajectory(
+      options.trajectory, std::max(options.frames, options.frames_per_loop));
+  RequireFreeSpace(scene, rig, poses, options.frames);
+
+  const DatasetLayout layout(directory, options.sensor);
+  MakeDirectory(directory);
+  MakeDirectory(JoinPath(directory, layout.colour_dir));
+  MakeDirectory(JoinPath(directory, layout.range_dir));
+  const std::vector<char> written = WriteImages(layout, scene, rig, poses, options, stop);
+
+  // Stopped, the dataset ends before the first frame a worker did not write. Its poses are
+  // still those of the loop `options` asked for, which synthetic.txt must then say.
+  SyntheticDatasetOptions as_written = options;
+  as_written.frames =
+      static_cast<int>(std::find(written.begin(), written.end(), 0) - written.begin());
+  if (as_written.frames < options.frames) {
+    as_written.frames_per_loop = std::max(options.frames, options.frames_per_loop);
+  }
+  RemoveImagesFrom(as_written.frames, written, layout, options);
+  WriteListsAndMetadata(layout, rig, poses, options, as_written);
   return as_written.frames;
 }
 

@@ -7,7 +7,7 @@
 //    fx = fy = 525, cx = 319.5, cy = 239.5). Depth holds z, 16-bit PNG in the TUM convention
 //    (raw / 5000 = metres), valid in [0.4, 4.5] m, noise sigma(z) = 0.0002 + 0.0016 z^2: the
 //    a + c z^2 fit (as data/calib/tum_fr*.yaml) to Nguyen et al. (2012)'s
-//    0.0012 + 0.0019 (z - 0.4)^2, within 10% over 1-4.5 m; core/camera.h's noise model
+//    0.0012 + 0.0019 (z - 0.4)^2 (docs/frontend_notes.md); core/camera.h's noise model
 //    cannot hold Nguyen's form (its b would be negative), and the data are generated with
 //    exactly the model calib.yaml states, so an estimator's covariances are the truth.
 //  - pair: the paper's package, a 1024x768 colour camera (fx = fy = 800, 65 x 51 deg) plus a
@@ -92,7 +92,7 @@ struct SyntheticFrame {
 
 // Renders frame `index` (its noise seeded by noise_seed and index) at pose T_w_c of the
 // colour camera. `rig` is normally SyntheticRig(options.sensor, options.resolution_scale).
-// CHECK-fails on options failing Check().
+// Throws ConfigError for options failing Check().
 SyntheticFrame RenderSyntheticFrame(const SyntheticScene& scene, const Rig& rig,
                                     const Eigen::Isometry3d& T_w_c,
                                     const SyntheticDatasetOptions& options, int index);

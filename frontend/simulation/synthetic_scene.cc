@@ -7,6 +7,8 @@
 #include <glog/logging.h>
 #include <Eigen/Geometry>
 
+#include "core/error.h"
+
 namespace ieslam {
 namespace {
 
@@ -65,7 +67,7 @@ Eigen::Vector3d SceneBox::Corner(int i) const {
 
 SyntheticScene::SyntheticScene(const SyntheticSceneOptions& options) : options_(options) {
   std::string why;
-  CHECK(options.Check(&why)) << why;
+  if (!options.Check(&why)) throw ConfigError("synthetic scene options: " + why);
   std::mt19937 rng(options.seed);
   for (int i = 0; i < kRoomSurfaceCount; ++i) {
     textures_.push_back(RandomSurfaceTexture(/*allow_text=*/i >= kWallMinusX, &rng));
@@ -172,6 +174,15 @@ void SyntheticScene::PlaceBoards(std::mt19937* rng) {
 SceneHit SyntheticScene::Intersect(const Eigen::Vector3d& origin_w,
                                    const Eigen::Vector3d& direction_w, double t_min) const {
   SceneHit hit;
+  IntersectRoom(origin_w, direction_w, t_min, &hit);
+  IntersectBoxes(origin_w, direction_w, t_min, &hit);
+  IntersectBoards(origin_w, direction_w, t_min, &hit);
+  return hit;
+}
+
+void SyntheticScene::IntersectRoom(const Eigen::Vector3d& origin_w,
+                                   const Eigen::Vector3d& direction_w, double t_min,
+                                   SceneHit* hit) const {
   // The room from inside: the first of the three slabs the ray leaves.
   const Eigen::Vector3d lo = room_min_w(), hi = room_max_w();
   for (int axis = 0; axis < 3; ++axis) {
@@ -179,25 +190,29 @@ SceneHit SyntheticScene::Intersect(const Eigen::Vector3d& origin_w,
     if (d == 0.0) continue;
     const bool positive = d > 0.0;
     const double t = ((positive ? hi[axis] : lo[axis]) - origin_w[axis]) / d;
-    if (t <= t_min || t >= hit.t) continue;
-    hit.t = t;
-    hit.surface =
+    if (t <= t_min || t >= hit->t) continue;
+    hit->t = t;
+    hit->surface =
         axis == 2 ? (positive ? kCeiling : kFloor) : kWallMinusX + 2 * axis + (positive ? 1 : 0);
-    hit.normal_w = Eigen::Vector3d::Zero();
-    hit.normal_w[axis] = positive ? -1.0 : 1.0;
+    hit->normal_w = Eigen::Vector3d::Zero();
+    hit->normal_w[axis] = positive ? -1.0 : 1.0;
   }
-  if (hit.valid()) {
-    const Eigen::Vector3d p = origin_w + hit.t * direction_w - lo;
-    if (hit.surface == kFloor || hit.surface == kCeiling)
-      hit.st_m = {p.x(), p.y()};
-    else if (hit.surface <= kWallPlusX)
-      hit.st_m = {p.y(), p.z()};
+  if (hit->valid()) {
+    const Eigen::Vector3d p = origin_w + hit->t * direction_w - lo;
+    if (hit->surface == kFloor || hit->surface == kCeiling)
+      hit->st_m = {p.x(), p.y()};
+    else if (hit->surface <= kWallPlusX)
+      hit->st_m = {p.y(), p.z()};
     else
-      hit.st_m = {p.x(), p.z()};
+      hit->st_m = {p.x(), p.z()};
   }
+}
 
-  // Boxes: slab test in each box's own axes; the ray enters through the face of the slab
-  // entered last.
+void SyntheticScene::IntersectBoxes(const Eigen::Vector3d& origin_w,
+                                    const Eigen::Vector3d& direction_w, double t_min,
+                                    SceneHit* hit) const {
+  // Slab test in each box's own axes; the ray enters through the face of the slab entered
+  // last.
   const double inverse_length2 = 1.0 / direction_w.squaredNorm();
   for (size_t b = 0; b < boxes_.size(); ++b) {
     const SceneBox& box = boxes_[b];
@@ -228,34 +243,37 @@ SceneHit SyntheticScene::Intersect(const Eigen::Vector3d& origin_w,
       t_far = std::min(t_far, t1);
       miss = t_near > t_far;
     }
-    if (miss || entry_axis < 0 || t_near <= t_min || t_near >= hit.t) continue;
+    if (miss || entry_axis < 0 || t_near <= t_min || t_near >= hit->t) continue;
     const bool from_minus = d[entry_axis] > 0.0;  // entering through the -axis face
     Eigen::Vector3d normal_local = Eigen::Vector3d::Zero();
     normal_local[entry_axis] = from_minus ? -1.0 : 1.0;
     const Eigen::Vector3d p = o + t_near * d + box.half_size_m;  // in [0, 2h]
-    hit.t = t_near;
-    hit.surface = box.first_surface + 2 * entry_axis + (from_minus ? 0 : 1);
-    hit.normal_w = Yaw(c, s, normal_local);
-    hit.st_m = entry_axis == 0   ? Eigen::Vector2d(p.y(), p.z())
-               : entry_axis == 1 ? Eigen::Vector2d(p.x(), p.z())
-                                 : Eigen::Vector2d(p.x(), p.y());
+    hit->t = t_near;
+    hit->surface = box.first_surface + 2 * entry_axis + (from_minus ? 0 : 1);
+    hit->normal_w = Yaw(c, s, normal_local);
+    hit->st_m = entry_axis == 0   ? Eigen::Vector2d(p.y(), p.z())
+                : entry_axis == 1 ? Eigen::Vector2d(p.x(), p.z())
+                                  : Eigen::Vector2d(p.x(), p.y());
   }
+}
 
+void SyntheticScene::IntersectBoards(const Eigen::Vector3d& origin_w,
+                                     const Eigen::Vector3d& direction_w, double t_min,
+                                     SceneHit* hit) const {
   for (const SceneBoard& board : boards_) {
     const Eigen::Vector3d n = board.axis_u_w.cross(board.axis_v_w);
     const double denom = direction_w.dot(n);
     if (std::fabs(denom) < 1e-15) continue;
     const double t = (board.origin_w - origin_w).dot(n) / denom;
-    if (t <= t_min || t >= hit.t) continue;
+    if (t <= t_min || t >= hit->t) continue;
     const Eigen::Vector3d q = origin_w + t * direction_w - board.origin_w;
     const double s = q.dot(board.axis_u_w), v = q.dot(board.axis_v_w);
     if (s < 0.0 || s > board.size_u_m || v < 0.0 || v > board.size_v_m) continue;
-    hit.t = t;
-    hit.surface = board.surface;
-    hit.normal_w = denom < 0.0 ? n : Eigen::Vector3d(-n);
-    hit.st_m = {s, v};
+    hit->t = t;
+    hit->surface = board.surface;
+    hit->normal_w = denom < 0.0 ? n : Eigen::Vector3d(-n);
+    hit->st_m = {s, v};
   }
-  return hit;
 }
 
 bool SyntheticScene::IsFreeSpace(const Eigen::Vector3d& p_w, double margin_m) const {

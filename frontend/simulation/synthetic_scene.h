@@ -78,8 +78,8 @@ enum RoomSurface : int {
 
 class SyntheticScene {
  public:
-  // CHECK-fails on options that fail Check(). Boxes and boards that cannot be placed without
-  // overlap after many tries are left out (boxes().size() may be below box_count).
+  // Throws ConfigError for options that fail Check(). Boxes and boards that cannot be placed
+  // without overlap after many tries are left out (boxes().size() may be below box_count).
   explicit SyntheticScene(const SyntheticSceneOptions& options);
 
   const SyntheticSceneOptions& options() const { return options_; }
@@ -104,6 +104,14 @@ class SyntheticScene {
   bool IsFreeSpace(const Eigen::Vector3d& p_w, double margin_m = 0.0) const;
 
  private:
+  // The parts of Intersect, in its order: each replaces *hit by a nearer hit (t_min < t <
+  // hit->t) on the room's faces, the boxes or the boards.
+  void IntersectRoom(const Eigen::Vector3d& origin_w, const Eigen::Vector3d& direction_w,
+                     double t_min, SceneHit* hit) const;
+  void IntersectBoxes(const Eigen::Vector3d& origin_w, const Eigen::Vector3d& direction_w,
+                      double t_min, SceneHit* hit) const;
+  void IntersectBoards(const Eigen::Vector3d& origin_w, const Eigen::Vector3d& direction_w,
+                       double t_min, SceneHit* hit) const;
   void PlaceBoxes(std::mt19937* rng);
   void PlaceBoards(std::mt19937* rng);
   bool FootprintIsFree(const Eigen::Vector2d& centre, double radius) const;

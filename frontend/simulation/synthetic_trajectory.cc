@@ -5,6 +5,8 @@
 
 #include <glog/logging.h>
 
+#include "core/error.h"
+
 namespace ieslam {
 namespace {
 
@@ -82,7 +84,7 @@ Eigen::Isometry3d SyntheticTrajectoryPose(const SyntheticTrajectoryOptions& o, i
 std::vector<Eigen::Isometry3d> BuildSyntheticTrajectory(const SyntheticTrajectoryOptions& options,
                                                         int frames) {
   std::string why;
-  CHECK(options.Check(&why)) << why;
+  if (!options.Check(&why)) throw ConfigError("synthetic trajectory options: " + why);
   CHECK_GE(frames, 1);
   std::vector<Eigen::Isometry3d> poses;
   poses.reserve(frames);

@@ -46,7 +46,7 @@ struct SyntheticTrajectoryOptions {
 Eigen::Isometry3d SyntheticTrajectoryPose(const SyntheticTrajectoryOptions& options, int i,
                                           int frames);
 
-// All `frames` poses (frames >= 1). CHECK-fails on options failing Check().
+// All `frames` poses (frames >= 1). Throws ConfigError for options failing Check().
 std::vector<Eigen::Isometry3d> BuildSyntheticTrajectory(const SyntheticTrajectoryOptions& options,
                                                         int frames);
 

@@ -6,6 +6,7 @@
 #include <opencv2/core.hpp>
 
 #include "backend/evaluation/evaluation.h"
+#include "backend/evaluation/evaluation_io.h"
 #include "core/error.h"
 #include "core/stopwatch.h"
 #include "selection/pipeline/options_json.h"

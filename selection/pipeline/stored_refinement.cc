@@ -7,8 +7,10 @@
 #include <utility>
 
 #include "backend/evaluation/evaluation.h"
+#include "backend/evaluation/evaluation_io.h"
 #include "core/error.h"
 #include "core/file_util.h"
+#include "core/timestamp_association.h"
 
 namespace ieslam {
 namespace {
@@ -26,29 +28,39 @@ SlamEstimate InitialEstimate(const BundleAdjustmentProblem& problem) {
   return estimate;
 }
 
-// The ground-truth pose of every frame of `stored`, matched by timestamp as `ieslam evaluate`
-// associates (within 0.02 s). DataError naming the frame and the file when one has none.
+// Each frame of `stored` associated with the index of its stamp in `stamps` (sorted), as
+// `ieslam evaluate` associates: within `max_diff_s`, greedily by time difference.
+std::map<int, size_t> FramesAtStamps(const StoredBaProblem& stored,
+                                     const std::vector<double>& stamps, double max_diff_s) {
+  std::vector<std::pair<double, int>> by_time;  // (timestamp, frame): AssociateStamps sorts
+  for (const auto& [frame, stamp] : stored.timestamps) by_time.emplace_back(stamp, frame);
+  std::sort(by_time.begin(), by_time.end());
+  std::vector<double> frame_stamps;
+  for (const auto& [stamp, frame] : by_time) frame_stamps.push_back(stamp);
+  std::map<int, size_t> matched;
+  for (const StampMatch& m : AssociateStamps(frame_stamps, stamps, 0.0, max_diff_s)) {
+    matched[by_time[m.first_index].second] = m.second_index;
+  }
+  return matched;
+}
+
+// The ground-truth pose of every frame of `stored` (within 0.02 s). DataError naming the
+// frame and the file when one has none.
 std::map<int, Eigen::Isometry3d> GroundTruthPoses(const StoredBaProblem& stored,
                                                   const std::string& gt_path) {
   const Trajectory gt = ReadTumTrajectoryForEvaluation(gt_path);
   std::vector<double> gt_stamps;
   for (const TimedPose& pose : gt) gt_stamps.push_back(pose.timestamp);
-  // AssociateStamps takes stamps in time order.
-  std::vector<std::pair<double, int>> by_time;  // (timestamp, frame)
-  for (const auto& [frame, stamp] : stored.timestamps) by_time.emplace_back(stamp, frame);
-  std::sort(by_time.begin(), by_time.end());
-  std::vector<double> frame_stamps;
-  for (const auto& [stamp, frame] : by_time) frame_stamps.push_back(stamp);
+  const std::map<int, size_t> matched = FramesAtStamps(stored, gt_stamps, 0.02);
   std::map<int, Eigen::Isometry3d> poses;
-  for (const StampMatch& m : AssociateStamps(frame_stamps, gt_stamps, 0.0, 0.02)) {
-    poses[by_time[m.first_index].second] = gt[m.second_index].T_w_c;
-  }
   for (const auto& [frame, stamp] : stored.timestamps) {
-    if (poses.count(frame) == 0) {
+    const auto it = matched.find(frame);
+    if (it == matched.end()) {
       throw DataError("frame " + std::to_string(frame) + " (t = " + std::to_string(stamp) +
                       " s) has no pose in " + gt_path +
                       " within 0.02 s: --from-ground-truth needs one for every frame");
     }
+    poses[frame] = gt[it->second].T_w_c;
   }
   return poses;
 }
@@ -92,24 +104,21 @@ RangeClouds LoadRangeCloudsAtTimestamps(const Dataset& dataset, const StoredBaPr
                                         std::vector<std::string>* warnings) {
   constexpr double kSameTimestampS = 1e-4;
   CheckSameCamera(dataset, stored.camera);
+  std::vector<double> stamps;
+  for (int i = 0; i < dataset.size(); ++i) stamps.push_back(dataset.info(i).timestamp);
+  const std::map<int, size_t> matched = FramesAtStamps(stored, stamps, kSameTimestampS);
   RangeClouds loaded;
   for (const auto& [frame, T_w_c] : stored.problem.T_w_c) {
-    const auto stamp = stored.timestamps.find(frame);
-    int index = -1;
-    if (stamp != stored.timestamps.end()) {
-      for (int i = 0; i < dataset.size() && index < 0; ++i) {
-        if (std::abs(dataset.info(i).timestamp - stamp->second) <= kSameTimestampS) index = i;
-      }
-    }
     const std::string left_out =
         "frame " + std::to_string(frame) + " left out of the depth alignment: ";
-    if (index < 0) {
+    const auto it = matched.find(frame);
+    if (it == matched.end()) {
       warnings->push_back(left_out + "no frame of " + dataset.directory() + " at its timestamp");
       ++loaded.frames_left_out;
       continue;
     }
     try {
-      const Frame frame_data = dataset.Load(index);
+      const Frame frame_data = dataset.Load(static_cast<int>(it->second));
       loaded.clouds[frame] =
           MakeRangeCloud(frame_data.depth, dataset.rig().range, dataset.rig().T_colour_range,
                          options, "frame " + std::to_string(frame));

@@ -38,10 +38,10 @@ struct StoredRefinement {
 };
 
 // The range clouds of the problem's frames, read from `dataset`: each pose is matched to the
-// dataset's frame at its timestamp (within 0.1 ms), so that a dataset opened without the
-// run's --first/--last/--stride still gives the right frames. A frame not found or not
-// readable is left out with a warning. Throws DataError when the dataset's colour camera is
-// not the problem's (another calibration) or no frame matches (another dataset).
+// dataset's frame at its timestamp (within 0.1 ms, as `ieslam evaluate` associates), so that a
+// dataset opened without the run's --first/--last/--stride still gives the right frames. A frame
+// not found or not readable is left out with a warning. Throws DataError when the dataset's colour
+// camera is not the problem's (another calibration) or no frame matches (another dataset).
 RangeClouds LoadRangeCloudsAtTimestamps(const Dataset& dataset, const StoredBaProblem& stored,
                                         const RangeCloudOptions& options,
                                         std::vector<std::string>* warnings);

@@ -13,6 +13,7 @@
 #include <gtest/gtest.h>
 
 #include "backend/evaluation/evaluation.h"
+#include "backend/evaluation/evaluation_io.h"
 #include "command_test_util.h"
 #include "frontend/simulation/synthetic_dataset.h"
 

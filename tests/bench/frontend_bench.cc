@@ -1,7 +1,7 @@
 // Front-end micro-benchmarks on real 7-Scenes frames: image loading, SIFT extraction,
 // lifting, exact pair matching, FLANN database ranking against growing databases, RANSAC
-// registration, and the whole per-frame front end of issue 4 (features + matching against
-// the previous frame + lifting + RANSAC; target <= 40 ms). Run through scripts/bench.sh;
+// registration, and the whole per-frame front end (features + matching against the previous
+// frame + lifting + RANSAC; target <= 40 ms). Run through scripts/bench.sh;
 // OpenCV runs single-threaded.
 #include <benchmark/benchmark.h>
 
@@ -144,7 +144,7 @@ void BM_LoadFrame(benchmark::State& state) {
 }
 BENCHMARK(BM_LoadFrame)->Unit(benchmark::kMillisecond);
 
-// Issue 4's front-end time per frame: the new frame's features and lifting, then matching
+// The front end's time per frame: the new frame's features and lifting, then matching
 // and RANSAC against the previous frame (5 frames earlier, as `ieslam register --step 5`).
 // Images are in memory; BM_LoadFrame is the loading on top.
 void BM_FrontendPerFrame(benchmark::State& state) {

@@ -23,6 +23,17 @@ TEST(JsonTest, NumbersRoundTripAndNonFiniteIsNull) {
   EXPECT_EQ(Json(0.1 + 0.2).Dump(), "0.30000000000000004");
 }
 
+TEST(JsonTest, BareDoublesPrintIntegralValuesWithoutAPoint) {
+  EXPECT_EQ(Json::BareDouble(1.0).Dump(), "1");
+  EXPECT_EQ(Json::BareDouble(0.0).Dump(), "0");
+  EXPECT_EQ(Json::BareDouble(0.02).Dump(), "0.02");
+  EXPECT_EQ(Json::BareDouble(1e20).Dump(), "1e+20");
+  EXPECT_EQ(Json::BareDouble(std::nan("")).Dump(), "null");
+  Json object = Json::Object();
+  object.Set("bare", Json::BareDouble(2.0)).Set("plain", 2.0);
+  EXPECT_EQ(object.Dump(0), R"({"bare":2,"plain":2.0})");
+}
+
 TEST(JsonTest, IntegralDoublesReadBackAsDoubles) {
   EXPECT_EQ(Json(3.0).Dump(), "3.0");
   EXPECT_EQ(Json(0.0).Dump(), "0.0");

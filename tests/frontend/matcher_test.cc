@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include "core/error.h"
+
 namespace ieslam {
 namespace {
 
@@ -91,6 +93,15 @@ TEST(MatcherTest, DatabaseRanksTheFrameThatSharesMostDescriptors) {
   BaseFrameDatabase again(options);
   for (int f = 0; f < 6; ++f) again.Add(100 + f, frames[f]);
   EXPECT_EQ(again.RankFrames(query, 3), ranked);
+}
+
+TEST(MatcherTest, DatabaseRejectsBadOptionsWithConfigError) {
+  DatabaseOptions bad;
+  bad.neighbours = 1;
+  EXPECT_THROW(BaseFrameDatabase{bad}, ConfigError);
+  bad = DatabaseOptions();
+  bad.trees = 0;
+  EXPECT_THROW(BaseFrameDatabase{bad}, ConfigError);
 }
 
 TEST(MatcherTest, EmptyInputsGiveNoMatches) {

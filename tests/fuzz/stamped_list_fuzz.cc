@@ -12,8 +12,10 @@
 #include <sstream>
 #include <string>
 
-#include "core/dataset_formats.h"
 #include "core/error.h"
+#include "core/listed_frames.h"
+#include "core/stamped_list.h"
+#include "core/timestamp_association.h"
 #include "core/trajectory.h"
 
 namespace {
@@ -58,10 +60,12 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   for (const auto& e : colour) a.push_back(e.timestamp);
   for (const auto& e : range) b.push_back(e.timestamp);
   constexpr double kMaxDiff = 0.02;
-  const auto matches = ieslam::AssociateTimestamps(a, b, kMaxDiff);
-  std::set<int> used_a, used_b;
-  for (const auto& [i, j] : matches) {
-    Require(i >= 0 && i < static_cast<int>(a.size()) && j >= 0 && j < static_cast<int>(b.size()));
+  const std::vector<ieslam::StampMatch> matches = ieslam::AssociateStamps(a, b, 0.0, kMaxDiff);
+  std::set<size_t> used_a, used_b;
+  for (const ieslam::StampMatch& m : matches) {
+    const size_t i = m.first_index, j = m.second_index;
+    Require(i < a.size() && j < b.size());
+    Require(m.first_stamp == a[i] && m.second_stamp == b[j]);
     Require(used_a.insert(i).second && used_b.insert(j).second);
     Require(std::fabs(a[i] - b[j]) < kMaxDiff);
   }

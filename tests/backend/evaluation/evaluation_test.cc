@@ -9,6 +9,7 @@
 
 #include <gtest/gtest.h>
 
+#include "backend/evaluation/evaluation_io.h"
 #include "core/error.h"
 #include "core/trajectory.h"
 
@@ -75,43 +76,6 @@ TEST_F(TumReferenceTest, RpeOneFrameMatchesEvaluateRpe) {
     ASSERT_LT(pair.est_timestamp_0, pair.est_timestamp_1);
     ASSERT_LT(pair.est_timestamp_1 - pair.est_timestamp_0, 0.1);  // one ORB frame (~30 Hz)
   }
-}
-
-TEST_F(TumReferenceTest, FormatAndJsonCarryTheNumbers) {
-  const EvaluationResult result =
-      EvaluateTrajectoryFiles(kTumEvalDir + "fr2_desk_groundtruth.txt",
-                              kTumEvalDir + "fr2_desk_ORB.txt", EvaluationOptions());
-  ASSERT_EQ(result.warnings.size(), 1u);
-  EXPECT_NE(result.warnings[0].find("fr2_desk_groundtruth.txt: 1 repeated"), std::string::npos)
-      << result.warnings[0];
-  const std::string text = FormatEvaluation(result);
-  EXPECT_NE(text.find("ate.pairs 2223\n"), std::string::npos) << text;
-  EXPECT_NE(text.find("ate.rmse 0.008144\n"), std::string::npos) << text;
-  EXPECT_NE(text.find("ate.median 0.007432\n"), std::string::npos) << text;
-  EXPECT_NE(text.find("rpe.pairs 1998\n"), std::string::npos) << text;
-  EXPECT_NE(text.find("rpe.trans.rmse 0.007161\n"), std::string::npos) << text;
-  EXPECT_NE(text.find("rpe.rot.rmse 0.455005\n"), std::string::npos) << text;
-  // Exactly the ten keys of CLI.md, in its order.
-  const char* keys[] = {"ate.pairs", "ate.rmse", "ate.mean",  "ate.median",     "ate.std",
-                        "ate.min",   "ate.max",  "rpe.pairs", "rpe.trans.rmse", "rpe.rot.rmse"};
-  std::size_t at = 0;
-  for (const char* key : keys) {
-    ASSERT_EQ(text.compare(at, std::string(key).size() + 1, std::string(key) + " "), 0) << key;
-    at = text.find('\n', at) + 1;
-  }
-  EXPECT_EQ(at, text.size());
-
-  const std::string json = EvaluationToJson(result);
-  EXPECT_NE(json.find("\"pairs\": 2223,"), std::string::npos) << json;
-  EXPECT_NE(json.find("\"pairs\": 1998,"), std::string::npos) << json;
-  EXPECT_NE(json.find("\"trans\": {"), std::string::npos) << json;
-  EXPECT_NE(json.find("\"rot\": {"), std::string::npos) << json;
-  // The first "rmse" is the ATE's and reads back to the same double.
-  const std::size_t rmse = json.find("\"rmse\": ");
-  ASSERT_NE(rmse, std::string::npos);
-  EXPECT_EQ(std::strtod(json.c_str() + rmse + 8, nullptr), result.ate.translation.rmse);
-
-  EXPECT_EQ(result.aligned_estimate.size(), est_->size());
 }
 
 // A 10 Hz trajectory that turns and climbs, so that the alignment is well posed.
@@ -207,36 +171,6 @@ TEST(EvaluationTest, RpeSkipsPairsInGroundTruthGaps) {
   }
 }
 
-TEST(EvaluationTest, AssociationIsGreedyByTimeDifference) {
-  // (1.01, 1.012) is the closest candidate, so 1.0 falls back to 1.004.
-  std::vector<StampMatch> m = AssociateStamps({1.0, 1.01}, {1.004, 1.012}, 0.0, 0.02);
-  ASSERT_EQ(m.size(), 2u);
-  EXPECT_EQ(m[0].first_index, 0u);
-  EXPECT_EQ(m[0].second_index, 0u);
-  EXPECT_EQ(m[1].first_index, 1u);
-  EXPECT_EQ(m[1].second_index, 1u);
-  // One second stamp wanted by two first stamps: the closer one gets it, the other none.
-  m = AssociateStamps({1.0, 1.01}, {1.008}, 0.0, 0.02);
-  ASSERT_EQ(m.size(), 1u);
-  EXPECT_EQ(m[0].first_index, 1u);
-  EXPECT_DOUBLE_EQ(m[0].second_stamp, 1.008);
-}
-
-TEST(EvaluationTest, AssociationAppliesOffsetAndMaxDiff) {
-  const std::vector<double> first = {2.0, 2.1, 2.2, 2.3};
-  const std::vector<double> second = {1.0, 1.115, 1.19, 1.33};
-  // Offset 1 s: |a - (b + 1)| = 0, 0.015, 0.01, 0.03; the last is beyond 0.02.
-  std::vector<StampMatch> m = AssociateStamps(first, second, 1.0, 0.02);
-  ASSERT_EQ(m.size(), 3u);
-  for (std::size_t i = 0; i < 3; ++i) {
-    EXPECT_EQ(m[i].first_index, i);
-    EXPECT_EQ(m[i].second_index, i);
-  }
-  EXPECT_EQ(AssociateStamps(first, second, 1.0, 0.012).size(), 2u);  // drops 2.1 <-> 1.115
-  EXPECT_EQ(AssociateStamps(first, second, 1.0, 0.05).size(), 4u);
-  EXPECT_TRUE(AssociateStamps(first, second, 0.0, 0.02).empty());
-}
-
 TEST(EvaluationTest, FewerThanThreePairsThrowsNamingTheFiles) {
   const Trajectory gt = MakeTrajectory(20);
   Trajectory est(gt.begin(), gt.begin() + 2);
@@ -267,18 +201,6 @@ TEST(EvaluationTest, FindClosestIndexKeepsTheReferenceTieBreak) {
   EXPECT_EQ(FindClosestIndex(list, 1.5), 2u);
 }
 
-TEST(EvaluationTest, StatsFollowNumpy) {
-  const ErrorStats even = ComputeErrorStats({4.0, 1.0, 3.0, 2.0});
-  EXPECT_EQ(even.count, 4u);
-  EXPECT_DOUBLE_EQ(even.median, 2.5);
-  EXPECT_DOUBLE_EQ(even.mean, 2.5);
-  EXPECT_DOUBLE_EQ(even.std, std::sqrt(1.25));  // ddof = 0
-  EXPECT_DOUBLE_EQ(even.rmse, std::sqrt(7.5));
-  EXPECT_DOUBLE_EQ(even.min, 1.0);
-  EXPECT_DOUBLE_EQ(even.max, 4.0);
-  EXPECT_DOUBLE_EQ(ComputeErrorStats({5.0, 1.0, 3.0}).median, 3.0);
-}
-
 TEST(EvaluationTest, OptionsAreChecked) {
   EvaluationOptions options;
   std::string why;
@@ -302,79 +224,6 @@ TEST(EvaluationTest, OptionsAreChecked) {
   EXPECT_EQ(unit, DeltaUnit::kSeconds);
   EXPECT_FALSE(ParseDeltaUnit("m", &unit));
   EXPECT_EQ(DeltaUnitName(DeltaUnit::kFrames), "f");
-}
-
-TEST(EvaluationTest, ReaderSortsAndKeepsTheLastOfRepeatedStamps) {
-  const std::string path = ::testing::TempDir() + "evaluation_test_repeats.txt";
-  {
-    std::ofstream out(path);
-    out << "# t tx ty tz qx qy qz qw\n"
-        << "2.0 2 0 0 0 0 0 1\n"
-        << "1.0 1 0 0 0 0 0 1\n"
-        << "\n"
-        << "2.0,5,0,0,0,0,0,1\n"  // repeats 2.0: wins, as the later line of TUM's dict
-        << "3.0\t3 0 0 0 0 0 1\n";
-  }
-  std::vector<std::string> warnings;
-  const Trajectory trajectory = ReadTumTrajectoryForEvaluation(path, &warnings);
-  ASSERT_EQ(trajectory.size(), 3u);
-  EXPECT_EQ(trajectory[0].timestamp, 1.0);
-  EXPECT_EQ(trajectory[1].timestamp, 2.0);
-  EXPECT_EQ(trajectory[1].T_w_c.translation().x(), 5.0);
-  EXPECT_EQ(trajectory[2].T_w_c.translation().x(), 3.0);
-  ASSERT_EQ(warnings.size(), 1u);
-  EXPECT_NE(warnings[0].find(path), std::string::npos);
-  {
-    std::ofstream out(path);
-    out << "1.0 1 0 0 0 0 0 1\n1.5 1 0 zero 0 0 0 1\n";
-  }
-  try {
-    ReadTumTrajectoryForEvaluation(path);
-    FAIL() << "expected DataError";
-  } catch (const DataError& e) {
-    EXPECT_NE(std::string(e.what()).find(path + ":2"), std::string::npos) << e.what();
-  }
-  std::remove(path.c_str());
-}
-
-TEST(EvaluationTest, MissingFileIsADataErrorNamingIt) {
-  const std::string missing = kTumEvalDir + "no_such_estimate.txt";
-  try {
-    EvaluateTrajectoryFiles(kTumEvalDir + "fr2_desk_groundtruth.txt", missing, EvaluationOptions());
-    FAIL() << "expected DataError";
-  } catch (const DataError& e) {
-    EXPECT_NE(std::string(e.what()).find("no_such_estimate.txt"), std::string::npos) << e.what();
-  }
-}
-
-}  // namespace
-}  // namespace ieslam
-
-namespace ieslam {
-namespace {
-
-// A trajectory read back in memory is the one `ieslam evaluate` reads from its file.
-TEST(EvaluationTest, ReadBackInMemoryEqualsReadingTheWrittenFile) {
-  Trajectory trajectory;
-  for (int i = 0; i < 5; ++i) {
-    TimedPose pose;
-    pose.timestamp = 1305031102.175304 + 0.0333333333 * i;
-    pose.T_w_c = Eigen::AngleAxisd(0.1234567891 * i, Eigen::Vector3d(1, 2, 3).normalized());
-    pose.T_w_c.translation() = Eigen::Vector3d(0.1234567891234, -2.0 / 3.0, 1e-7 * i);
-    trajectory.push_back(pose);
-  }
-  const std::string path = ::testing::TempDir() + "/ieslam_read_back.tum";
-  WriteTumTrajectory(path, trajectory, "comment");
-  const Trajectory from_file = ReadTumTrajectoryForEvaluation(path);
-  const Trajectory in_memory = AsReadBackFromTum(trajectory, "trajectory");
-  ASSERT_EQ(in_memory.size(), from_file.size());
-  for (size_t i = 0; i < in_memory.size(); ++i) {
-    EXPECT_EQ(in_memory[i].timestamp, from_file[i].timestamp);
-    EXPECT_EQ(in_memory[i].T_w_c.matrix(), from_file[i].T_w_c.matrix());
-    // The rounding is the file's: not the values given.
-    EXPECT_NE(in_memory[i].T_w_c.translation().x(), trajectory[i].T_w_c.translation().x());
-  }
-  std::remove(path.c_str());
 }
 
 }  // namespace

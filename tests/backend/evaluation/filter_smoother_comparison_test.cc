@@ -35,7 +35,7 @@ TEST(FilterSmootherComparisonTest, IdenticalEstimatesGiveZeroDifference) {
   EXPECT_EQ(c.translation_m.max, 0.0);
   EXPECT_LT(c.rotation_deg.max, 1e-6);
   EXPECT_EQ(c.mahalanobis.max, 0.0);
-  EXPECT_EQ(c.feature_m.count, 2);
+  EXPECT_EQ(c.feature_m.count, 2u);
   EXPECT_EQ(c.feature_m.max, 0.0);
   EXPECT_EQ(c.frames_only_in_filter, 0);
 }

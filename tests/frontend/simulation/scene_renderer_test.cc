@@ -3,10 +3,12 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <random>
 
 #include <opencv2/features2d.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "core/error.h"
 #include "frontend/simulation/synthetic_dataset.h"
 #include "frontend/simulation/synthetic_trajectory.h"
 
@@ -28,6 +30,34 @@ Eigen::Isometry3d Pose(const Eigen::Vector3d& t, double heading, double pitch, d
   T.linear() = LookRotation(heading, pitch, roll);
   T.translation() = t;
   return T;
+}
+
+TEST(SceneRendererTest, BadOptionsCamerasAndImagersThrowConfigError) {
+  SyntheticSceneOptions scene_options;
+  scene_options.box_count = 0;
+  const SyntheticScene scene(scene_options);
+  const Eigen::Isometry3d T_w_c = Pose(Eigen::Vector3d(0, 0, 1.5), 0.0, 0.0, 0.0);
+  RenderOptions bad_options;
+  bad_options.edge_supersampling = 0;
+  EXPECT_THROW(RenderView(scene, SmallCamera(), T_w_c, bad_options), ConfigError);
+  PinholeCamera bad_camera = SmallCamera();
+  bad_camera.fx = 0.0;
+  EXPECT_THROW(RenderView(scene, bad_camera, T_w_c, RenderOptions()), ConfigError);
+
+  RangeImager imager;
+  imager.camera = SmallCamera();
+  imager.noise = {0.005, 0.01, 0.0};
+  RenderOptions geometry;
+  geometry.colour = false;
+  const RenderedView view = RenderView(scene, imager.camera, T_w_c, geometry);
+  std::mt19937 rng(1);
+  RangeSensorModel bad_model;
+  bad_model.max_incidence_deg = 95.0;
+  EXPECT_THROW(SimulateRangeImage(view, imager, bad_model, &rng), ConfigError);
+  RangeImager bad_imager = imager;
+  bad_imager.max_range_m = 0.05;  // below min_range_m
+  EXPECT_THROW(SimulateRangeImage(view, bad_imager, RangeSensorModel(), &rng), ConfigError);
+  EXPECT_NO_THROW(SimulateRangeImage(view, imager, RangeSensorModel(), &rng));
 }
 
 TEST(SceneRendererTest, FrontoParallelWallHasConstantDepth) {

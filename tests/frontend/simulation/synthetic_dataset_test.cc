@@ -55,6 +55,10 @@ TEST(SyntheticDatasetTest, OptionsAndSensorNames) {
   bad.trajectory.yaw_wobble_cycles = -1;
   EXPECT_FALSE(bad.Check(&why));
   EXPECT_THROW(WriteSyntheticDataset(TempDir("bad"), bad), ConfigError);
+  const SyntheticScene scene{SyntheticSceneOptions()};
+  EXPECT_THROW(
+      RenderSyntheticFrame(scene, SyntheticRig(bad.sensor), Eigen::Isometry3d::Identity(), bad, 0),
+      ConfigError);
   EXPECT_EQ(ParseSyntheticSensor("pair"), SyntheticSensor::kPair);
   EXPECT_EQ(std::string(ToString(ParseSyntheticSensor("rgbd"))), "rgbd");
   EXPECT_THROW(ParseSyntheticSensor("kinect"), ConfigError);

@@ -4,6 +4,8 @@
 
 #include <cmath>
 
+#include "core/error.h"
+
 namespace ieslam {
 namespace {
 
@@ -20,6 +22,7 @@ TEST(SyntheticSceneTest, OptionsCheckRejectsBadValues) {
   bad = SyntheticSceneOptions();
   bad.clear_radii_m.x() = 3.5;  // wider than the 6 m room
   EXPECT_FALSE(bad.Check(&why));
+  EXPECT_THROW(SyntheticScene{bad}, ConfigError);
 }
 
 TEST(SyntheticSceneTest, SameSeedSameSceneOtherSeedOtherScene) {

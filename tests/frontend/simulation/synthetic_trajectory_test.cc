@@ -4,6 +4,7 @@
 
 #include <cmath>
 
+#include "core/error.h"
 #include "core/pose.h"
 #include "frontend/simulation/synthetic_dataset.h"
 #include "frontend/simulation/synthetic_scene.h"
@@ -32,6 +33,7 @@ TEST(SyntheticTrajectoryTest, OptionsCheck) {
   bad = SyntheticTrajectoryOptions();
   bad.radial_sway_m = 2.0;
   EXPECT_FALSE(bad.Check(&why));
+  EXPECT_THROW(BuildSyntheticTrajectory(bad, 10), ConfigError);
 }
 
 TEST(SyntheticTrajectoryTest, IsAHandHeldClosedLoopInFreeSpace) {

@@ -11,6 +11,7 @@
 #include <gtest/gtest.h>
 
 #include "backend/evaluation/evaluation.h"
+#include "backend/evaluation/evaluation_io.h"
 #include "core/error.h"
 #include "frontend/simulation/synthetic_dataset.h"
 #include "selection/pipeline/run_outputs.h"

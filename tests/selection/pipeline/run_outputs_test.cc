@@ -12,6 +12,7 @@
 
 #include "backend/ba_problem_io.h"
 #include "backend/evaluation/evaluation.h"
+#include "backend/evaluation/evaluation_io.h"
 #include "core/trajectory.h"
 #include "test_files.h"
 

@@ -1,8 +1,5 @@
-// Microsoft 7-Scenes format (Shotton et al., CVPR 2013): per frame
-// frame-NNNNNN.color.{png,jpg}, frame-NNNNNN.depth.png (16-bit mm, 0 and 65535 invalid) and
-// frame-NNNNNN.pose.txt (4x4 camera-to-world, row-major, of the depth camera, which with
-// identity extrinsics is the colour camera's pose too). No timestamps: frame N is at N/30 s.
-// camera-intrinsics.txt, when present, holds the depth camera's 3x3 K.
+#include "core/seven_scenes_dataset.h"
+
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -15,7 +12,6 @@
 #include <Eigen/SVD>
 
 #include "core/calibration.h"
-#include "core/dataset_formats.h"
 #include "core/error.h"
 #include "core/file_util.h"
 
@@ -61,7 +57,7 @@ Eigen::Isometry3d ReadPose(const std::string& path) {
     for (int c = 0; c < 4; ++c) T(r, c) = m[4 * r + c];
   }
   const Eigen::Matrix3d R = T.topLeftCorner<3, 3>();
-  // KinectFusion's chained poses drift from orthonormal (|R^T R - I| ~ 3e-4 in 7scenes-dev),
+  // KinectFusion's chained poses drift slightly from orthonormal (docs/frontend_notes.md),
   // so only a clearly non-rigid matrix (a scale, a shear) is rejected; the rest is projected
   // onto the nearest rotation below.
   const double error = (R.transpose() * R - Eigen::Matrix3d::Identity()).norm();
@@ -101,7 +97,7 @@ struct FrameFiles {
 }  // namespace
 
 SevenScenesDataset::SevenScenesDataset(const std::string& directory, const DatasetOptions& options)
-    : Dataset(directory, Rig()) {
+    : Dataset(directory, options) {
   const bool given = !options.calib_file.empty();
   calibration_path_ = given ? options.calib_file : DefaultCalibrationPath("7scenes");
   calibration_source_ = given ? "given calibration file" : "7-Scenes default";
