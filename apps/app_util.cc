@@ -7,6 +7,7 @@
 
 #include <unistd.h>
 
+#include "apps/option_flags.h"
 #include "core/error.h"
 #include "core/stopwatch.h"
 
@@ -21,22 +22,38 @@ void PrepareOutputDirectory(const std::string& path) {
   }
 }
 
+namespace {
+
+// The dataset options as the flags of a command that reads a dataset set them.
+const OptionRegistry<DatasetOptions>& DatasetRegistry() {
+  static const OptionRegistry<DatasetOptions>* registry = [] {
+    auto* r = new OptionRegistry<DatasetOptions>;
+    r->Section<DatasetOptions>("dataset", DatasetOptions::Table(),
+                               [](DatasetOptions* o) { return o; });
+    return r;
+  }();
+  return *registry;
+}
+
+const std::vector<OptionFlag> kDatasetFlags = {{"format", "dataset.format"},
+                                               {"calib", "dataset.calib"},
+                                               {"first", "dataset.first"},
+                                               {"last", "dataset.last"},
+                                               {"stride", "dataset.stride"}};
+
+}  // namespace
+
 std::vector<FlagSpec> DatasetFlagSpecs() {
-  return {{"dataset", "DIR", "dataset directory (TUM, 7-Scenes or pair layout)"},
-          {"format", "F", "auto|tum|7scenes|pair (default auto)"},
-          {"calib", "FILE", "calibration YAML overriding the format's default"},
-          {"first", "N", "first frame (default 0)"},
-          {"last", "N", "last frame, inclusive (default: the end)"},
-          {"stride", "N", "use every N-th frame (default 1)"}};
+  std::vector<FlagSpec> specs = {
+      {"dataset", "DIR", "dataset directory (TUM, 7-Scenes or pair layout)"}};
+  const std::vector<FlagSpec> options = OptionFlagSpecs(DatasetRegistry(), kDatasetFlags);
+  specs.insert(specs.end(), options.begin(), options.end());
+  return specs;
 }
 
 DatasetOptions DatasetOptionsFromFlags(const Flags& flags) {
   DatasetOptions options;
-  options.format = flags.GetString("format", options.format);
-  options.calib_file = flags.GetString("calib", "");
-  options.first = flags.GetInt("first", options.first, 0, 100000000);
-  options.last = flags.GetInt("last", options.last, -1, 100000000);
-  options.stride = flags.GetInt("stride", options.stride, 1, 100000);
+  ApplyOptionFlags(flags, DatasetRegistry(), kDatasetFlags, &options);
   std::string why;
   if (!options.Check(&why)) throw ConfigError(why);
   return options;

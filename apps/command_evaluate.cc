@@ -3,6 +3,7 @@
 
 #include "apps/app_util.h"
 #include "apps/commands.h"
+#include "apps/option_flags.h"
 #include "backend/evaluation/evaluation.h"
 #include "backend/evaluation/evaluation_io.h"
 #include "core/error.h"
@@ -10,16 +11,32 @@
 
 namespace ieslam {
 
+namespace {
+
+const OptionRegistry<EvaluationOptions>& EvaluationRegistry() {
+  static const OptionRegistry<EvaluationOptions>* registry = [] {
+    auto* r = new OptionRegistry<EvaluationOptions>;
+    r->Section<EvaluationOptions>("", EvaluationOptions::Table(),
+                                  [](EvaluationOptions* o) { return o; });
+    return r;
+  }();
+  return *registry;
+}
+
+const std::vector<OptionFlag> kOptionFlags = {{"max-diff", "max_diff_s"},
+                                              {"offset", "offset_s"},
+                                              {"scale", "scale"},
+                                              {"delta", "delta"},
+                                              {"delta-unit", "delta_unit"}};
+
+}  // namespace
+
 int EvaluateCommand(const CommandArgs& args) {
-  const std::vector<FlagSpec> specs = {
-      {"gt", "FILE", "ground truth, TUM format (required)"},
-      {"est", "FILE", "estimate, TUM format (required)"},
-      {"max-diff", "S", "association window in seconds (default 0.02)"},
-      {"offset", "S", "added to the estimate's timestamps (default 0)"},
-      {"scale", "X", "multiplies the estimate's translations (default 1)"},
-      {"delta", "D", "RPE step (default 1)"},
-      {"delta-unit", "U", "s (seconds) or f (frames) (default s)"},
-      {"output", "OUT", "also write OUT/evaluation.json"}};
+  std::vector<FlagSpec> specs = {{"gt", "FILE", "ground truth, TUM format (required)"},
+                                 {"est", "FILE", "estimate, TUM format (required)"},
+                                 {"output", "OUT", "also write OUT/evaluation.json"}};
+  const std::vector<FlagSpec> option_specs = OptionFlagSpecs(EvaluationRegistry(), kOptionFlags);
+  specs.insert(specs.end(), option_specs.begin(), option_specs.end());
   const Flags flags(args, specs);
   if (flags.help()) {
     std::cout << FormatHelp("evaluate", "--gt FILE --est FILE [flags]",
@@ -29,14 +46,7 @@ int EvaluateCommand(const CommandArgs& args) {
     return 0;
   }
   EvaluationOptions options;
-  options.max_diff_s = flags.GetDouble("max-diff", options.max_diff_s, 0.0, 1e6);
-  options.offset_s = flags.GetDouble("offset", options.offset_s, -1e12, 1e12);
-  options.scale = flags.GetDouble("scale", options.scale, 1e-9, 1e9);
-  options.delta = flags.GetDouble("delta", options.delta, 0.0, 1e12);
-  const std::string unit = flags.GetString("delta-unit", "s");
-  if (!ParseDeltaUnit(unit, &options.delta_unit)) {
-    throw ConfigError("--delta-unit must be s or f, got '" + unit + "'");
-  }
+  ApplyOptionFlags(flags, EvaluationRegistry(), kOptionFlags, &options);
   std::string why;
   if (!options.Check(&why)) throw ConfigError(why);
 

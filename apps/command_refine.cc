@@ -6,15 +6,13 @@
 #include <algorithm>
 #include <cstdio>
 #include <iostream>
-#include <thread>
 
 #include "apps/app_util.h"
 #include "apps/commands.h"
-#include "apps/config_file.h"
 #include "core/error.h"
 #include "core/file_util.h"
 #include "core/version.h"
-#include "selection/pipeline/options_json.h"
+#include "selection/pipeline/run_options.h"
 #include "selection/pipeline/stored_refinement.h"
 
 namespace ieslam {
@@ -51,8 +49,7 @@ StoredRefinementOptions RefineOptionsFromFlags(const Flags& flags, RunOptions* c
   // default they use every core; Ceres' own threads follow --threads only.
   const int threads = flags.GetInt("threads", 0, 1, 256);
   if (threads > 0) options.ba.num_threads = threads;
-  options.depth_alignment.num_threads =
-      threads > 0 ? threads : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+  options.depth_alignment.num_threads = WorkerThreads(threads);
   options.from_ground_truth = flags.Has("from-ground-truth");
   std::string why;
   if (!options.Check(&why)) throw ConfigError(why);
@@ -63,20 +60,25 @@ StoredRefinementOptions RefineOptionsFromFlags(const Flags& flags, RunOptions* c
 }
 
 Json RefineReport(const Flags& flags, const StoredRefinementOptions& options,
-                  const RangeCloudOptions& range_cloud, const StoredRefinement& r) {
+                  const StoredRefinement& r) {
+  // The options as the run's config sections report them.
+  RunOptions used;
+  used.pipeline.ba = options.ba;
+  used.pipeline.depth_alignment = options.depth_alignment;
+  used.range_cloud = options.range_cloud;
+  Json sections = RunOptions::Registry().ToJson(used);
   Json report = Json::Object();
   report.Set("version", IeslamVersion())
       .Set("run", flags.Require("run"))
       .Set("poses", static_cast<int>(r.stored.problem.T_w_c.size()))
       .Set("features", static_cast<int>(r.stored.problem.p_w.size()))
       .Set("observations", static_cast<int>(r.stored.problem.observations.size()));
-  report["options"].Set("ba", BaOptionsToJson(options.ba));
+  report["options"].Set("ba", sections["ba"]);
   report["options"]["ba"].Set("threads", options.ba.num_threads);
   report["options"].Set("start", options.from_ground_truth ? "ground_truth" : "run");
   if (r.aligned_clouds) {
     report["options"].Set("dataset", flags.GetString("dataset", ""));
-    report["options"].Set("depth_alignment",
-                          DepthAlignmentOptionsToJson(options.depth_alignment, range_cloud));
+    report["options"].Set("depth_alignment", sections["depth_alignment"]);
   }
   report["seconds"].Set("ba", r.refinement.seconds);
   if (r.ate_keyframes_m >= 0.0) report["ate_rmse_m"].Set("keyframes", r.ate_keyframes_m);
@@ -115,7 +117,7 @@ int RefineCommand(const CommandArgs& args) {
   PrepareOutputDirectory(out);
   WriteTumTrajectory(JoinPath(out, "refined.tum"), refined.refined,
                      "ieslam bundle-adjusted keyframes");
-  const Json report = RefineReport(flags, options, config.range_cloud, refined);
+  const Json report = RefineReport(flags, options, refined);
   WriteTextAtomically(JoinPath(out, "report.json"), report.Dump() + "\n");
   const BundleAdjustmentProblem& problem = refined.stored.problem;
   std::printf("refine: %zu poses, %zu features, %zu observations, %.2f s\n", problem.T_w_c.size(),

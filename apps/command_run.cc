@@ -4,8 +4,8 @@
 
 #include "apps/app_util.h"
 #include "apps/commands.h"
-#include "apps/config_file.h"
 #include "apps/interrupt.h"
+#include "apps/option_flags.h"
 #include "core/error.h"
 #include "selection/pipeline/dataset_run.h"
 #include "selection/pipeline/run_outputs.h"
@@ -14,39 +14,34 @@
 namespace ieslam {
 namespace {
 
+// Flags that set one option each; the others (dataset, output, config, quiet, verbose) are
+// the command's own.
+const std::vector<OptionFlag> kOptionFlags = {
+    {"format", "dataset.format"},  {"calib", "dataset.calib"},
+    {"first", "dataset.first"},    {"last", "dataset.last"},
+    {"stride", "dataset.stride"},  {"selector", "selector.kind"},
+    {"buffer", "selector.buffer"}, {"interval", "selector.interval"},
+    {"refine", "refine"},          {"seed", "seed"},
+    {"threads", "threads"}};
+
 std::vector<FlagSpec> RunFlagSpecs() {
-  std::vector<FlagSpec> specs = DatasetFlagSpecs();
-  const std::vector<FlagSpec> more = {
+  std::vector<FlagSpec> specs = {
+      {"dataset", "DIR", "dataset directory (TUM, 7-Scenes or pair layout)"},
       {"output", "OUT", "output directory (required)"},
-      {"selector", "S", "info (default), all, interval or deadreckoning"},
-      {"buffer", "N", "look-ahead buffer of the info selector (default 3)"},
-      {"interval", "N", "every N-th frame for --selector interval (default 5)"},
-      {"refine", "", "bundle-adjust the selected frames (writes refined.tum)"},
-      {"seed", "S", "seed of RANSAC and FLANN (default 1)"},
-      {"threads", "N", "1: deterministic single-thread mode (default: all cores)"},
-      {"config", "FILE", "YAML with the options of every stage"},
+      {"config", "FILE", "YAML with the options of every stage (ieslam options writes one)"},
       {"quiet", "", "no progress output"},
       {"verbose", "", "also log every selector decision (candidates, gains, frames added)"}};
-  specs.insert(specs.end(), more.begin(), more.end());
+  const std::vector<FlagSpec> options = OptionFlagSpecs(RunOptions::Registry(), kOptionFlags);
+  specs.insert(specs.end(), options.begin(), options.end());
   return specs;
 }
 
+// The config file first, then the flags over it.
 RunOptions RunOptionsFromFlags(const Flags& flags) {
   RunOptions options;
   if (flags.Has("config")) ApplyConfigFile(flags.Require("config"), &options);
   options.dataset = flags.Require("dataset");
-  options.dataset_options = DatasetOptionsFromFlags(flags);
-  SelectorOptions& selector = options.pipeline.selector;
-  const std::string kind = flags.GetString("selector", "info");
-  if (flags.Has("selector") && !ParseSelectorKind(kind, &selector.kind)) {
-    throw ConfigError("--selector must be info, all, interval or deadreckoning, got '" + kind +
-                      "'");
-  }
-  selector.buffer_size = flags.GetInt("buffer", selector.buffer_size, 1, 100);
-  selector.interval = flags.GetInt("interval", selector.interval, 1, 100000);
-  options.seed = static_cast<uint32_t>(flags.GetInt("seed", 1, 0, 2000000000));
-  options.threads = flags.GetInt("threads", 0, 0, 256);
-  options.pipeline.refine = flags.Has("refine");
+  ApplyOptionFlags(flags, RunOptions::Registry(), kOptionFlags, &options);
   std::string why;
   if (!options.Check(&why)) throw ConfigError(why);
   return options;

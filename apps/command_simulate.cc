@@ -6,12 +6,11 @@
 
 #include "apps/app_util.h"
 #include "apps/commands.h"
-#include "apps/config_file.h"
 #include "apps/interrupt.h"
 #include "core/error.h"
 #include "core/file_util.h"
 #include "core/version.h"
-#include "selection/pipeline/options_json.h"
+#include "selection/pipeline/run_options.h"
 #include "selection/pipeline/simulation_study.h"
 
 namespace ieslam {
@@ -56,9 +55,9 @@ Json StudyReport(const Flags& flags, const SimulationStudyOptions& options,
   report["options"].Set("buffers", Json::ArrayOf(options.buffers));
   report["options"].Set("config", flags.GetString("config", ""));
   report["options"].Set("runs", options.runs);  // asked for; "runs" above: those the table covers
-  report["options"].Set("selector", SelectorOptionsToJson(options.selector));
-  report["options"].Set("filter", FilterOptionsToJson(options.filter));
-  report["options"].Set("ba", BaOptionsToJson(options.ba));
+  report["options"].Set("selector", SelectorOptions::Table().ToJson(options.selector));
+  report["options"].Set("filter", InformationFilterOptions::Table().ToJson(options.filter));
+  report["options"].Set("ba", BundleAdjustmentOptions::Table().ToJson(options.ba));
   report.Set("table", StudyRowsToJson(study.rows));
   report.Set("first_run_pose_errors", study.first_run_pose_errors);
   return report;

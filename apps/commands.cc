@@ -14,6 +14,7 @@ const std::vector<Command>& Commands() {
       {"synth", "write a synthetic RGB-D dataset with exact ground truth", SynthCommand},
       {"register", "register frame i to i+K across a dataset against ground truth",
        RegisterCommand},
+      {"options", "every option with its default and help, as a --config file", OptionsCommand},
   };
   return commands;
 }

@@ -220,23 +220,56 @@ std::string BaLinearSolverName(BaLinearSolver solver) {
   return solver == BaLinearSolver::kSparseSchur ? "sparse_schur" : "sparse_normal_cholesky";
 }
 
-bool BundleAdjustmentOptions::Check(std::string* why) const {
-  auto fail = [why](const std::string& message) {
-    if (why != nullptr) *why = "bundle adjustment: " + message;
-    return false;
-  };
-  if (max_iterations < 1) return fail("max_iterations must be >= 1");
-  if (!(rejection_chi2 >= 0.0)) return fail("rejection_chi2 must be >= 0 (0: no rejection)");
-  if (max_rejection_rounds < 0) return fail("max_rejection_rounds must be >= 0");
-  if (!(function_tolerance >= 0.0)) return fail("function_tolerance must be >= 0");
-  if (!(gradient_tolerance >= 0.0)) return fail("gradient_tolerance must be >= 0");
-  if (!(parameter_tolerance >= 0.0)) return fail("parameter_tolerance must be >= 0");
-  if (robust_loss == BaRobustLoss::kHuber && !(huber_scale > 0.0 && std::isfinite(huber_scale))) {
-    return fail("huber_scale must be > 0");
+namespace {
+
+bool ParseBaLinearSolver(const std::string& name, BaLinearSolver* solver) {
+  for (const BaLinearSolver candidate :
+       {BaLinearSolver::kSparseSchur, BaLinearSolver::kSparseNormalCholesky}) {
+    if (name == BaLinearSolverName(candidate)) {
+      *solver = candidate;
+      return true;
+    }
   }
-  if (num_threads < 1) return fail("num_threads must be >= 1");
-  if (!(min_depth_m > 0.0)) return fail("min_depth_m must be > 0");
-  return true;
+  return false;
+}
+
+}  // namespace
+
+const OptionTable<BundleAdjustmentOptions>& BundleAdjustmentOptions::Table() {
+  static const OptionTable<BundleAdjustmentOptions>* table = [] {
+    using O = BundleAdjustmentOptions;
+    auto* t = new OptionTable<O>;
+    t->Enum("robust_loss", &O::robust_loss, ParseBaRobustLoss, BaRobustLossName, "none|huber",
+            "loss on the whitened residuals");
+    t->Double("huber_scale", &O::huber_scale, "sigmas: Huber's quadratic part");
+    t->Double("rejection_chi2", &O::rejection_chi2,
+              "drop observations with |W (h - z)|^2 above this and solve again (0: keep all)")
+        .Min(0.0);
+    t->Int("max_rejection_rounds", &O::max_rejection_rounds, "solves after rejections at most")
+        .Min(0);
+    t->Int("max_iterations", &O::max_iterations, "Levenberg-Marquardt iterations per solve").Min(1);
+    t->Double("function_tolerance", &O::function_tolerance,
+              "relative cost decrease below which a solve stops")
+        .Min(0.0);
+    t->Double("gradient_tolerance", &O::gradient_tolerance, "Ceres' gradient tolerance").Min(0.0);
+    t->Double("parameter_tolerance", &O::parameter_tolerance, "Ceres' parameter tolerance")
+        .Min(0.0);
+    t->Enum("linear_solver", &O::linear_solver, ParseBaLinearSolver, BaLinearSolverName,
+            "sparse_schur|sparse_normal_cholesky", "Ceres' linear solver");
+    t->Int("num_threads", &O::num_threads, "Ceres' threads: from the run's threads")
+        .Min(1)
+        .Derived();
+    t->Bool("compute_covariances", &O::compute_covariances, "per-pose marginal covariances");
+    t->Double("min_depth_m", &O::min_depth_m, "a point closer to the camera plane is invalid")
+        .Above(0.0);
+    t->Require([](const O& o) {
+      return o.robust_loss != BaRobustLoss::kHuber || o.huber_scale > 0.0
+                 ? std::string()
+                 : "huber_scale must be > 0 with robust_loss huber";
+    });
+    return t;
+  }();
+  return *table;
 }
 
 int BundleAdjustmentProblem::AnchorFrameId() const {

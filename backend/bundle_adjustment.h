@@ -20,6 +20,7 @@
 
 #include "core/camera.h"
 #include "core/observation.h"
+#include "core/option_table.h"
 #include "core/pose.h"
 
 namespace ieslam {
@@ -66,7 +67,9 @@ struct BundleAdjustmentOptions {
   // An observation whose point is closer than this to the camera plane is invalid.
   double min_depth_m = 1e-3;
 
-  bool Check(std::string* why) const;
+  // The options' registration: keys, help, checks (core/option_table.h).
+  static const OptionTable<BundleAdjustmentOptions>& Table();
+  bool Check(std::string* why) const { return Table().Check(*this, why); }
 };
 
 // One observation: frame `frame_id` saw feature observation.feature_id as observation.z.

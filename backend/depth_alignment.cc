@@ -128,35 +128,46 @@ Eigen::Isometry3d SensorPose(const Eigen::Isometry3d& T_w_c, const RangeCloud& c
 
 }  // namespace
 
-bool DepthAlignmentOptions::Check(std::string* why) const {
-  std::string problem;
-  auto positive = [](double x) { return x > 0.0 && std::isfinite(x); };
-  if (sample_step < 1 || sample_step > 64) {
-    problem = "sample_step must be in [1, 64], got " + std::to_string(sample_step);
-  } else if (max_iterations < 1) {
-    problem = "max_iterations must be >= 1";
-  } else if (!positive(initial_gate_m) || !positive(final_gate_m) ||
-             final_gate_m > initial_gate_m) {
-    problem = "gates must be positive, final_gate_m <= initial_gate_m";
-  } else if (!(max_normal_angle_deg > 0.0 && max_normal_angle_deg <= 90.0)) {
-    problem = "max_normal_angle_deg must be in (0, 90]";
-  } else if (!positive(huber_sigmas) || !positive(max_robust_sigma)) {
-    problem = "huber_sigmas and max_robust_sigma must be positive";
-  } else if (!(min_overlap > 0.0 && min_overlap <= 1.0)) {
-    problem = "min_overlap must be in (0, 1], got " + std::to_string(min_overlap);
-  } else if (!positive(max_depth_ratio)) {
-    problem = "max_depth_ratio must be positive";
-  } else if (min_correspondences < 6) {
-    problem = "min_correspondences must be >= 6";
-  } else if (rounds < 0 || !(convergence_m >= 0.0)) {
-    problem = "rounds must be >= 0 and convergence_m >= 0";
-  } else if (max_partners < 1) {
-    problem = "max_partners must be >= 1";
-  } else if (num_threads < 1) {
-    problem = "num_threads must be >= 1";
-  }
-  if (!problem.empty() && why != nullptr) *why = "depth alignment: " + problem;
-  return problem.empty();
+const OptionTable<DepthAlignmentOptions>& DepthAlignmentOptions::Table() {
+  static const OptionTable<DepthAlignmentOptions>* table = [] {
+    using O = DepthAlignmentOptions;
+    auto* t = new OptionTable<O>;
+    t->Int("rounds", &O::rounds,
+           "alternations of pairwise alignment and bundle adjustment (0: off)")
+        .Min(0);
+    t->Int("sample_step", &O::sample_step, "every n-th cloud point is matched").Range(1, 64);
+    t->Double("initial_gate_m", &O::initial_gate_m,
+              "point-to-point association gate, until converged")
+        .Above(0.0);
+    t->Double("final_gate_m", &O::final_gate_m, "... then this one").Above(0.0);
+    t->Double("max_normal_angle_deg", &O::max_normal_angle_deg, "matched normals within this angle")
+        .Above(0.0)
+        .Max(90.0);
+    t->Double("huber_sigmas", &O::huber_sigmas, "Huber weights on the point-to-plane residual")
+        .Above(0.0);
+    t->Double("min_overlap", &O::min_overlap, "share of matched points for a pair to count")
+        .Above(0.0)
+        .Max(1.0);
+    t->Double("max_robust_sigma", &O::max_robust_sigma,
+              "whitened residual spread above which a pair is rejected")
+        .Above(0.0);
+    t->Int("max_partners", &O::max_partners, "each frame picks at most this many others").Min(1);
+    t->Int("max_iterations", &O::max_iterations, "Gauss-Newton iterations of an alignment").Min(1);
+    t->Double("max_depth_ratio", &O::max_depth_ratio,
+              "a target surface's grid points within this share of their depth")
+        .Above(0.0);
+    t->Int("min_correspondences", &O::min_correspondences, "matched points a pair needs").Min(6);
+    t->Double("convergence_m", &O::convergence_m, "rounds stop once no pose moves more").Min(0.0);
+    t->Int("num_threads", &O::num_threads, "pairs aligned in parallel: from the run's threads")
+        .Min(1)
+        .Derived();
+    t->Require([](const O& o) {
+      return o.final_gate_m <= o.initial_gate_m ? std::string()
+                                                : "final_gate_m must be <= initial_gate_m";
+    });
+    return t;
+  }();
+  return *table;
 }
 
 PairAlignment AlignRangeClouds(const RangeCloud& source, const RangeCloud& target,

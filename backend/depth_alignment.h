@@ -19,6 +19,7 @@
 #include <Eigen/Geometry>
 
 #include "backend/bundle_adjustment.h"
+#include "core/option_table.h"
 #include "core/range_cloud.h"
 
 namespace ieslam {
@@ -64,7 +65,9 @@ struct DepthAlignmentOptions {
   double convergence_m = 1e-3;
   int num_threads = 1;  // pairs are aligned in parallel; the result does not depend on it
 
-  bool Check(std::string* why) const;
+  // The options' registration: keys, help, checks (core/option_table.h).
+  static const OptionTable<DepthAlignmentOptions>& Table();
+  bool Check(std::string* why) const { return Table().Check(*this, why); }
 };
 
 struct PairAlignment {

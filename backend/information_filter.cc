@@ -25,28 +25,77 @@ std::string FrameName(int frame_id) {
 
 }  // namespace
 
-bool InformationFilterOptions::Check(std::string* why) const {
-  std::ostringstream reason;
-  if (!(anchor_information > 0.0) || !std::isfinite(anchor_information)) {
-    reason << "anchor_information must be positive and finite, got " << anchor_information;
-  } else if (min_known_features < 3) {
-    reason << "min_known_features must be >= 3 (a pose has 6 DOF), got " << min_known_features;
-  } else if (!(min_depth_m > 0.0)) {
-    reason << "min_depth_m must be positive, got " << min_depth_m;
-  } else if (!(spare_capacity >= 0.0) || !std::isfinite(spare_capacity)) {
-    reason << "spare_capacity must be >= 0 and finite, got " << spare_capacity;
-  } else if (max_dense_pose_dim < 0 || (max_dense_pose_dim > 0 && max_dense_pose_dim < 6)) {
-    reason << "max_dense_pose_dim must be 0 (always sparse) or at least 6 (one pose), got "
-           << max_dense_pose_dim;
-  } else if (!(cg_tolerance > 0.0) || !std::isfinite(cg_tolerance)) {
-    reason << "cg_tolerance must be positive and finite, got " << cg_tolerance;
-  } else if (cg_max_iterations < 1) {
-    reason << "cg_max_iterations must be >= 1, got " << cg_max_iterations;
-  } else if (!(cg_flop_weight >= 0.0) || !std::isfinite(cg_flop_weight)) {
-    reason << "cg_flop_weight must be >= 0 and finite, got " << cg_flop_weight;
+namespace {
+
+bool ParseOrdering(const std::string& name, FillReducingOrdering* ordering) {
+  const std::pair<const char*, FillReducingOrdering> names[] = {
+      {"amd", FillReducingOrdering::kAmd},
+      {"cholmod", FillReducingOrdering::kCholmodChoice},
+      {"natural", FillReducingOrdering::kNatural},
+      {"metis", FillReducingOrdering::kMetis}};
+  for (const auto& [text, value] : names) {
+    if (name == text) {
+      *ordering = value;
+      return true;
+    }
   }
-  if (why != nullptr) *why = reason.str();
-  return reason.str().empty();
+  return false;
+}
+
+std::string OrderingName(FillReducingOrdering ordering) {
+  switch (ordering) {
+    case FillReducingOrdering::kAmd:
+      return "amd";
+    case FillReducingOrdering::kCholmodChoice:
+      return "cholmod";
+    case FillReducingOrdering::kNatural:
+      return "natural";
+    case FillReducingOrdering::kMetis:
+      return "metis";
+  }
+  return "?";
+}
+
+}  // namespace
+
+const OptionTable<InformationFilterOptions>& InformationFilterOptions::Table() {
+  static const OptionTable<InformationFilterOptions>* table = [] {
+    using O = InformationFilterOptions;
+    auto* t = new OptionTable<O>;
+    t->Double("anchor_information", &O::anchor_information,
+              "the first pose's information (it is the origin)")
+        .Above(0.0);
+    t->Bool("iterative_recovery", &O::iterative_recovery,
+            "dense factor: 0 refactors and solves exactly at every update (eq. 10)");
+    t->Double("cg_tolerance", &O::cg_tolerance,
+              "iterative recovery: error below this many standard deviations")
+        .Above(0.0);
+    t->Int("max_dense_pose_dim", &O::max_dense_pose_dim,
+           "dense pose Schur factor up to this pose dimension, sparse past it (0)");
+    t->Enum("ordering", &O::ordering, ParseOrdering, OrderingName, "amd|cholmod|natural|metis",
+            "the sparse factor's fill-reducing ordering");
+    t->Double("spare_capacity", &O::spare_capacity,
+              "room for new variables in the sparse factor, share of the state")
+        .Min(0.0);
+    t->Int("cg_max_iterations", &O::cg_max_iterations, "conjugate-gradient iterations at most")
+        .Min(1);
+    t->Double("cg_flop_weight", &O::cg_flop_weight,
+              "refactoring flops a conjugate-gradient flop costs, for the choice")
+        .Min(0.0);
+    t->Int("min_known_features", &O::min_known_features, "map features a new pose must observe")
+        .Min(3);
+    t->Double("min_depth_m", &O::min_depth_m,
+              "a feature closer to the camera plane is not linearised")
+        .Above(0.0);
+    t->Require([](const O& o) {
+      return o.max_dense_pose_dim == 0 || o.max_dense_pose_dim >= 6
+                 ? std::string()
+                 : "max_dense_pose_dim must be 0 (always sparse) or at least 6 (one pose), got " +
+                       std::to_string(o.max_dense_pose_dim);
+    });
+    return t;
+  }();
+  return *table;
 }
 
 void ValidateObservations(int frame_id, const std::vector<FeatureObservation>& observations) {

@@ -29,6 +29,7 @@
 #include "backend/sparse_information.h"
 #include "core/camera.h"
 #include "core/observation.h"
+#include "core/option_table.h"
 #include "core/pose.h"
 
 namespace ieslam {
@@ -88,7 +89,9 @@ struct InformationFilterOptions {
   // A feature closer than this to the camera plane (p_L.z) cannot be linearised.
   double min_depth_m = 1e-3;
 
-  bool Check(std::string* why) const;
+  // The options' registration: keys, help, checks (core/option_table.h).
+  static const OptionTable<InformationFilterOptions>& Table();
+  bool Check(std::string* why) const { return Table().Check(*this, why); }
 };
 
 // A pose (by frame id) or a feature (by feature id), for marginal covariance queries.

@@ -72,25 +72,30 @@ void RequireDatasetDirectory(const std::string& directory) {
 
 }  // namespace
 
-bool DatasetOptions::Check(std::string* why) const {
-  std::ostringstream s;
-  if (format != "auto" && format != "tum" && format != "7scenes" && format != "pair") {
-    s << "format must be auto, tum, 7scenes or pair, got '" << format << "'";
-  } else if (first < 0) {
-    s << "first must be >= 0, got " << first;
-  } else if (last != -1 && last < first) {
-    s << "last must be -1 (to the end) or >= first (" << first << "), got " << last;
-  } else if (stride < 1) {
-    s << "stride must be >= 1, got " << stride;
-  } else if (!(max_association_diff_s > 0.0) || !std::isfinite(max_association_diff_s)) {
-    s << "max_association_diff_s must be positive, got " << max_association_diff_s;
-  } else if (!(max_ground_truth_diff_s > 0.0) || !std::isfinite(max_ground_truth_diff_s)) {
-    s << "max_ground_truth_diff_s must be positive, got " << max_ground_truth_diff_s;
-  } else {
-    return true;
-  }
-  if (why != nullptr) *why = s.str();
-  return false;
+const OptionTable<DatasetOptions>& DatasetOptions::Table() {
+  static const OptionTable<DatasetOptions>* table = [] {
+    using O = DatasetOptions;
+    auto* t = new OptionTable<O>;
+    t->Choice("format", &O::format, {"auto", "tum", "7scenes", "pair"}, "the dataset's layout");
+    t->String("calib", &O::calib_file, "calibration file overriding the format's", "FILE");
+    t->Int("first", &O::first, "first frame").Min(0);
+    t->Int("last", &O::last, "last frame, inclusive (-1: the end)").Min(-1);
+    t->Int("stride", &O::stride, "every N-th frame").Min(1);
+    t->Double("max_association_diff_s", &O::max_association_diff_s,
+              "colour/range association window (tum, pair)")
+        .Above(0.0);
+    t->Double("max_ground_truth_diff_s", &O::max_ground_truth_diff_s,
+              "frame to ground-truth association window")
+        .Above(0.0);
+    t->Require([](const O& o) {
+      return o.last == -1 || o.last >= o.first
+                 ? std::string()
+                 : "last must be -1 (to the end) or >= first (" + std::to_string(o.first) +
+                       "), got " + std::to_string(o.last);
+    });
+    return t;
+  }();
+  return *table;
 }
 
 Dataset::Dataset(std::string directory, const DatasetOptions& options)

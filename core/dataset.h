@@ -23,6 +23,7 @@
 #include <opencv2/core.hpp>
 
 #include "core/camera.h"
+#include "core/option_table.h"
 #include "core/trajectory.h"
 
 namespace ieslam {
@@ -51,7 +52,9 @@ struct DatasetOptions {
   double max_association_diff_s = 0.02;   // colour/range association (tum, pair)
   double max_ground_truth_diff_s = 0.02;  // frame to ground-truth pose association
 
-  bool Check(std::string* why) const;
+  // The options' registration: keys, help, checks (core/option_table.h).
+  static const OptionTable<DatasetOptions>& Table();
+  bool Check(std::string* why) const { return Table().Check(*this, why); }
 };
 
 class Dataset {

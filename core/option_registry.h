@@ -78,7 +78,28 @@ class OptionRegistry {
       b.check = [cref, entry = &e](const R& root) { return entry->Check(cref(root)); };
       options_.push_back(std::move(b));
     }
+    for (const auto& check : table.cross_checks()) {
+      cross_.push_back([access, check, section](const R& root) {
+        const std::string reason = check(*access(const_cast<R*>(&root)));
+        return reason.empty() || section.empty() ? reason : section + ": " + reason;
+      });
+    }
     return *this;
+  }
+
+  // Every option's check ("section.key must be ..."), then the tables' cross checks.
+  bool Check(const R& root, std::string* why) const {
+    std::string reason;
+    for (const BoundOption<R>& o : options_) {
+      reason = o.check(root);
+      if (!reason.empty()) {
+        reason = o.name() + " " + reason;
+        break;
+      }
+    }
+    for (size_t i = 0; i < cross_.size() && reason.empty(); ++i) reason = cross_[i](root);
+    if (!reason.empty() && why != nullptr) *why = reason;
+    return reason.empty();
   }
 
   const std::vector<BoundOption<R>>& options() const { return options_; }
@@ -107,6 +128,21 @@ class OptionRegistry {
     }
     const std::string reason = option->check(*root);
     if (!reason.empty()) throw ConfigError(where + ": " + name + " " + reason);
+  }
+
+  // Sets option `name` from the value of command-line flag `flag`: ConfigError
+  // "--<flag> <reason>" as the flags' own errors read.
+  void SetFromFlag(R* root, const std::string& name, const std::string& value,
+                   const std::string& flag) const {
+    const BoundOption<R>* option = Find(name);
+    if (option == nullptr) throw ConfigError("--" + flag + ": no option " + name);
+    try {
+      option->set({value, false}, root);
+    } catch (const ConfigError& e) {
+      throw ConfigError("--" + flag + " " + e.what());
+    }
+    const std::string reason = option->check(*root);
+    if (!reason.empty()) throw ConfigError("--" + flag + " " + reason);
   }
 
   // Every option the file sets (ReadYamlOptions). An unknown section names the section.
@@ -145,6 +181,7 @@ class OptionRegistry {
 
  private:
   std::vector<BoundOption<R>> options_;
+  std::vector<std::function<std::string(const R&)>> cross_;
 };
 
 }  // namespace ieslam

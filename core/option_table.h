@@ -14,6 +14,7 @@
 //   }
 #pragma once
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <deque>
@@ -72,7 +73,10 @@ class OptionBuilder {
   OptionBuilder(OptionEntry<T>* entry, V T::*member) : entry_(entry), member_(member) {}
 
   // Inclusive bounds.
-  OptionBuilder& Range(V min, V max) { return Min(min).Max(max); }
+  OptionBuilder& Range(V min, V max) {
+    return Require([min, max](V v) { return v >= min && v <= max; },
+                   "in [" + Text(min) + ", " + Text(max) + "]");
+  }
   OptionBuilder& Min(V min) {
     return Require([min](V v) { return v >= min; }, ">= " + Text(min));
   }
@@ -163,6 +167,26 @@ class OptionTable {
     e.json = [member](const T& o) { return Json(o.*member); };
     e.yaml = [member](const T& o) { return JsonQuote(o.*member); };
   }
+  // A string that must be one of `choices`.
+  void Choice(const std::string& key, std::string T::*member,
+              const std::vector<std::string>& choices, const std::string& help) {
+    std::string names;
+    for (const std::string& c : choices) names += (names.empty() ? "" : "|") + c;
+    OptionEntry<T>& e = Add(key, help, names);
+    e.set = [member, choices, names](const OptionText& v, T* o) {
+      if (std::find(choices.begin(), choices.end(), v.text) == choices.end()) {
+        throw ConfigError("must be one of " + names + ", got '" + v.text + "'");
+      }
+      o->*member = v.text;
+    };
+    e.json = [member](const T& o) { return Json(o.*member); };
+    e.yaml = [member](const T& o) { return JsonQuote(o.*member); };
+    e.checks.push_back([member, choices, names](const T& o) {
+      return std::find(choices.begin(), choices.end(), o.*member) != choices.end()
+                 ? std::string()
+                 : "must be one of " + names + ", got '" + o.*member + "'";
+    });
+  }
   // An enum by its names: `parse` as ParseSelectorKind, `name` as SelectorKindName;
   // `names` lists them for help and messages ("info|all|interval").
   template <typename E>
@@ -181,6 +205,7 @@ class OptionTable {
   void Require(std::function<std::string(const T&)> check) { cross_.push_back(std::move(check)); }
 
   const std::deque<OptionEntry<T>>& entries() const { return entries_; }
+  const std::vector<std::function<std::string(const T&)>>& cross_checks() const { return cross_; }
   const OptionEntry<T>* Find(const std::string& key) const {
     for (const OptionEntry<T>& e : entries_) {
       if (e.key == key) return &e;

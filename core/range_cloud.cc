@@ -115,19 +115,24 @@ class GridPointEstimator {
 
 }  // namespace
 
-bool RangeCloudOptions::Check(std::string* why) const {
-  std::string problem;
-  if (step < 1 || step > 64) {
-    problem = "step (grid_step) must be in [1, 64], got " + std::to_string(step);
-  } else if (!(max_neighbour_depth_ratio > 0.0) || !std::isfinite(max_neighbour_depth_ratio)) {
-    problem = "max_neighbour_depth_ratio must be positive";
-  } else if (!(max_flatness_sigmas > 0.0) || !std::isfinite(max_flatness_sigmas)) {
-    problem = "max_flatness_sigmas must be positive";
-  } else if (!(max_incidence_deg > 0.0 && max_incidence_deg < 90.0)) {
-    problem = "max_incidence_deg must be in (0, 90)";
-  }
-  if (!problem.empty() && why != nullptr) *why = "range cloud: " + problem;
-  return problem.empty();
+const OptionTable<RangeCloudOptions>& RangeCloudOptions::Table() {
+  static const OptionTable<RangeCloudOptions>* table = [] {
+    using O = RangeCloudOptions;
+    auto* t = new OptionTable<O>;
+    t->Int("grid_step", &O::step, "range pixels between cloud points").Range(1, 64);
+    t->Double("max_neighbour_depth_ratio", &O::max_neighbour_depth_ratio,
+              "normals: neighbours within this share of the point's depth")
+        .Above(0.0);
+    t->Double("max_flatness_sigmas", &O::max_flatness_sigmas,
+              "normals: the window flat within this many range sigmas")
+        .Above(0.0);
+    t->Double("max_incidence_deg", &O::max_incidence_deg,
+              "surfaces seen more obliquely are left out")
+        .Above(0.0)
+        .Below(90.0);
+    return t;
+  }();
+  return *table;
 }
 
 int RangeCloud::ValidCount() const {

@@ -17,6 +17,7 @@
 #include <opencv2/core.hpp>
 
 #include "core/camera.h"
+#include "core/option_table.h"
 
 namespace ieslam {
 
@@ -40,7 +41,9 @@ struct RangeCloudOptions {
   // poorly defined.
   double max_incidence_deg = 75.0;
 
-  bool Check(std::string* why) const;
+  // The options' registration: keys, help, checks (core/option_table.h).
+  static const OptionTable<RangeCloudOptions>& Table();
+  bool Check(std::string* why) const { return Table().Check(*this, why); }
 };
 
 struct RangeCloud {

@@ -25,16 +25,15 @@ int64_t VoxelKey(const Eigen::Vector3d& p, double size) {
 
 }  // namespace
 
-bool DenseMapOptions::Check(std::string* why) const {
-  if (!(voxel_size_m > 0.0) || !std::isfinite(voxel_size_m)) {
-    if (why != nullptr) *why = "map.voxel_size_m must be positive";
-    return false;
-  }
-  if (pixel_step < 1) {
-    if (why != nullptr) *why = "map.pixel_step must be >= 1";
-    return false;
-  }
-  return true;
+const OptionTable<DenseMapOptions>& DenseMapOptions::Table() {
+  static const OptionTable<DenseMapOptions>* table = [] {
+    using O = DenseMapOptions;
+    auto* t = new OptionTable<O>;
+    t->Double("voxel_size_m", &O::voxel_size_m, "map.ply's voxel").Above(0.0);
+    t->Int("pixel_step", &O::pixel_step, "every n-th range pixel in each direction").Min(1);
+    return t;
+  }();
+  return *table;
 }
 
 DenseMap::DenseMap(const DenseMapOptions& options) : options_(options) {

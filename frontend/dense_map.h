@@ -11,6 +11,7 @@
 
 #include "core/camera.h"
 #include "core/dataset.h"
+#include "core/option_table.h"
 
 namespace ieslam {
 
@@ -18,7 +19,9 @@ struct DenseMapOptions {
   double voxel_size_m = 0.01;
   int pixel_step = 2;  // use every n-th range pixel in each direction
 
-  bool Check(std::string* why) const;
+  // The options' registration: keys, help, checks (core/option_table.h).
+  static const OptionTable<DenseMapOptions>& Table();
+  bool Check(std::string* why) const { return Table().Check(*this, why); }
 };
 
 class DenseMap {

@@ -10,24 +10,25 @@
 
 namespace ieslam {
 
-bool FeatureOptions::Check(std::string* why) const {
-  auto fail = [why](const std::string& message) {
-    if (why != nullptr) *why = message;
-    return false;
-  };
-  if (max_features < 0) return fail("features.max_features must be >= 0");
-  if (!(contrast_threshold > 0.0 && contrast_threshold < 1.0)) {
-    return fail("features.contrast_threshold must be in (0, 1), got " +
-                std::to_string(contrast_threshold));
-  }
-  if (!(edge_threshold > 1.0)) return fail("features.edge_threshold must be > 1");
-  if (octave_layers < 1 || octave_layers > 8)
-    return fail("features.octave_layers must be in [1, 8]");
-  if (!(sigma > 0.0)) return fail("features.sigma must be > 0");
-  if (!(image_scale > 0.1 && image_scale <= 1.0)) {
-    return fail("features.image_scale must be in (0.1, 1], got " + std::to_string(image_scale));
-  }
-  return true;
+const OptionTable<FeatureOptions>& FeatureOptions::Table() {
+  static const OptionTable<FeatureOptions>* table = [] {
+    using O = FeatureOptions;
+    auto* t = new OptionTable<O>;
+    t->Int("max_features", &O::max_features, "strongest SIFT keypoints kept per frame (0: all)")
+        .Min(0);
+    t->Double("contrast_threshold", &O::contrast_threshold, "SIFT's contrast threshold")
+        .Above(0.0)
+        .Below(1.0);
+    t->Double("edge_threshold", &O::edge_threshold, "SIFT's edge threshold").Above(1.0);
+    t->Int("octave_layers", &O::octave_layers, "SIFT's layers per octave").Range(1, 8);
+    t->Double("image_scale", &O::image_scale,
+              "SIFT on the image scaled by this (keypoints scaled back)")
+        .Above(0.1)
+        .Max(1.0);
+    t->Double("sigma", &O::sigma, "SIFT's Gaussian at the first octave").Above(0.0);
+    return t;
+  }();
+  return *table;
 }
 
 FrameFeatures ExtractFeatures(const cv::Mat& colour_bgr, const FeatureOptions& options) {

@@ -7,6 +7,8 @@
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
 
+#include "core/option_table.h"
+
 namespace ieslam {
 
 struct FeatureOptions {
@@ -22,7 +24,9 @@ struct FeatureOptions {
   // at a fraction of the cost (docs/frontend_notes.md).
   double image_scale = 0.5;
 
-  bool Check(std::string* why) const;
+  // The options' registration: keys, help, checks (core/option_table.h).
+  static const OptionTable<FeatureOptions>& Table();
+  bool Check(std::string* why) const { return Table().Check(*this, why); }
 };
 
 // Keypoints of one image. Row i of `descriptors` belongs to keypoint i.

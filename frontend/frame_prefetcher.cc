@@ -12,16 +12,17 @@
 
 namespace ieslam {
 
-bool PrefetchOptions::Check(std::string* why) const {
-  auto fail = [why](const std::string& message) {
-    if (why != nullptr) *why = message;
-    return false;
-  };
-  if (workers < 0 || workers > 64) {
-    return fail("prefetch.workers must be in [0, 64], got " + std::to_string(workers));
-  }
-  if (capacity < 1) return fail("prefetch.capacity must be >= 1, got " + std::to_string(capacity));
-  return true;
+const OptionTable<PrefetchOptions>& PrefetchOptions::Table() {
+  static const OptionTable<PrefetchOptions>* table = [] {
+    using O = PrefetchOptions;
+    auto* t = new OptionTable<O>;
+    t->Int("workers", &O::workers, "prefetch threads: from the run's threads")
+        .Range(0, 64)
+        .Derived();
+    t->Int("capacity", &O::capacity, "frames processed ahead at most (the memory bound)").Min(1);
+    return t;
+  }();
+  return *table;
 }
 
 FramePrefetcher::FramePrefetcher(const Dataset& dataset, const FrameProcessor& processor,

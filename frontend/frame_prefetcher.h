@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "core/dataset.h"
+#include "core/option_table.h"
 #include "frontend/frame_processor.h"
 
 namespace ieslam {
@@ -28,7 +29,9 @@ struct PrefetchOptions {
   // Frames started ahead and not yet taken, at most (the memory bound).
   int capacity = 4;
 
-  bool Check(std::string* why) const;
+  // The options' registration: keys, help, checks (core/option_table.h).
+  static const OptionTable<PrefetchOptions>& Table();
+  bool Check(std::string* why) const { return Table().Check(*this, why); }
 };
 
 struct PrefetchedFrame {

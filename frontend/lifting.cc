@@ -13,22 +13,35 @@
 
 namespace ieslam {
 
-bool LiftingOptions::Check(std::string* why) const {
-  auto fail = [why](const std::string& message) {
-    if (why != nullptr) *why = message;
-    return false;
-  };
-  if (window_radius < 0 || window_radius > 5)
-    return fail("lifting.window_radius must be in [0, 5]");
-  if (!(sigma_multiplier > 0.0) || !(footprint_multiplier >= 0.0) ||
-      !(edge_sigma_multiplier > 0.0)) {
-    return fail("lifting multipliers must be positive");
-  }
-  const int window = (2 * window_radius + 1) * (2 * window_radius + 1);
-  if (min_valid_in_window < 1 || min_valid_in_window > window) {
-    return fail("lifting.min_valid_in_window must be in [1, (2r+1)^2]");
-  }
-  return true;
+const OptionTable<LiftingOptions>& LiftingOptions::Table() {
+  static const OptionTable<LiftingOptions>* table = [] {
+    using O = LiftingOptions;
+    auto* t = new OptionTable<O>;
+    t->Int("window_radius", &O::window_radius,
+           "range pixels searched around the ray (or the pixel)")
+        .Range(0, 5);
+    t->Double("sigma_multiplier", &O::sigma_multiplier,
+              "distance-to-ray tolerance: k sigma_d(d) + one range pixel")
+        .Above(0.0);
+    t->Double("footprint_multiplier", &O::footprint_multiplier,
+              "range pixels' lateral size in the tolerance")
+        .Min(0.0);
+    t->Double("edge_sigma_multiplier", &O::edge_sigma_multiplier,
+              "range sigmas within which one surface's ranges lie")
+        .Above(0.0);
+    t->Int("min_valid_in_window", &O::min_valid_in_window,
+           "valid range pixels the registered look-up needs")
+        .Min(1);
+    t->Require([](const O& o) {
+      const int window = (2 * o.window_radius + 1) * (2 * o.window_radius + 1);
+      return o.min_valid_in_window <= window
+                 ? std::string()
+                 : "min_valid_in_window must be <= (2 window_radius + 1)^2 = " +
+                       std::to_string(window) + ", got " + std::to_string(o.min_valid_in_window);
+    });
+    return t;
+  }();
+  return *table;
 }
 
 FeatureLifter::FeatureLifter(const Rig& rig, const LiftingOptions& options)

@@ -23,6 +23,7 @@
 #include <opencv2/core.hpp>
 
 #include "core/camera.h"
+#include "core/option_table.h"
 
 namespace ieslam {
 
@@ -38,7 +39,9 @@ struct LiftingOptions {
   double edge_sigma_multiplier = 4.0;
   int min_valid_in_window = 5;  // of (2r+1)^2 for the registered look-up
 
-  bool Check(std::string* why) const;
+  // The options' registration: keys, help, checks (core/option_table.h).
+  static const OptionTable<LiftingOptions>& Table();
+  bool Check(std::string* why) const { return Table().Check(*this, why); }
 };
 
 struct LiftedPoint {

@@ -27,17 +27,31 @@ bool Fail(std::string* why, const std::string& message) {
 
 }  // namespace
 
-bool MatchOptions::Check(std::string* why) const {
-  if (!(ratio > 0.0 && ratio <= 1.0)) return Fail(why, "match.ratio must be in (0, 1]");
-  return true;
+const OptionTable<MatchOptions>& MatchOptions::Table() {
+  static const OptionTable<MatchOptions>* table = [] {
+    using O = MatchOptions;
+    auto* t = new OptionTable<O>;
+    t->Double("ratio", &O::ratio, "Lowe's ratio").Above(0.0).Max(1.0);
+    t->Bool("mutual", &O::mutual, "keep a match only if each is the other's nearest");
+    return t;
+  }();
+  return *table;
 }
 
-bool DatabaseOptions::Check(std::string* why) const {
-  if (trees < 1 || trees > 16) return Fail(why, "database.trees must be in [1, 16]");
-  if (checks < 1) return Fail(why, "database.checks must be >= 1");
-  if (neighbours < 2) return Fail(why, "database.neighbours must be >= 2");
-  if (!(ratio > 0.0 && ratio <= 1.0)) return Fail(why, "database.ratio must be in (0, 1]");
-  return true;
+const OptionTable<DatabaseOptions>& DatabaseOptions::Table() {
+  static const OptionTable<DatabaseOptions>* table = [] {
+    using O = DatabaseOptions;
+    auto* t = new OptionTable<O>;
+    t->Int("trees", &O::trees, "FLANN's randomised kd-trees").Range(1, 16);
+    t->Int("checks", &O::checks, "leaves visited per query").Min(1);
+    t->Int("neighbours", &O::neighbours, "nearest descriptors looked at per query").Min(2);
+    t->Double("ratio", &O::ratio, "a neighbour votes when closer than ratio x the k-th")
+        .Above(0.0)
+        .Max(1.0);
+    t->Uint("seed", &O::seed, "FLANN's tree randomisation: the run's seed").Derived();
+    return t;
+  }();
+  return *table;
 }
 
 std::vector<DescriptorMatch> MatchDescriptors(const cv::Mat& query, const cv::Mat& train,

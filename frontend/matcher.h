@@ -15,13 +15,17 @@
 
 #include <opencv2/core.hpp>
 
+#include "core/option_table.h"
+
 namespace ieslam {
 
 struct MatchOptions {
   double ratio = 0.8;  // Lowe's ratio on descriptor distances
   bool mutual = true;  // keep a match only if each is the other's nearest neighbour
 
-  bool Check(std::string* why) const;
+  // The options' registration: keys, help, checks (core/option_table.h).
+  static const OptionTable<MatchOptions>& Table();
+  bool Check(std::string* why) const { return Table().Check(*this, why); }
 };
 
 struct DescriptorMatch {
@@ -41,7 +45,9 @@ struct DatabaseOptions {
   double ratio = 0.8;  // a neighbour votes when closer than ratio x the k-th distance
   unsigned seed = 1;   // FLANN's tree randomisation
 
-  bool Check(std::string* why) const;
+  // The options' registration: keys, help, checks (core/option_table.h).
+  static const OptionTable<DatabaseOptions>& Table();
+  bool Check(std::string* why) const { return Table().Check(*this, why); }
 };
 
 // The descriptors of every base frame in one FLANN index: each frame's descriptors are added

@@ -9,17 +9,21 @@
 
 namespace ieslam {
 
-bool PairwiseOptions::Check(std::string* why) const {
-  auto fail = [why](const std::string& message) {
-    if (why != nullptr) *why = message;
-    return false;
-  };
-  if (step < 1) return fail("step must be >= 1, got " + std::to_string(step));
-  if (min_inliers < 3) return fail("min_inliers must be >= 3");
-  if (!(max_translation_error_m > 0.0) || !(max_rotation_error_deg > 0.0)) {
-    return fail("error limits must be positive");
-  }
-  return true;
+const OptionTable<PairwiseOptions>& PairwiseOptions::Table() {
+  static const OptionTable<PairwiseOptions>* table = [] {
+    using O = PairwiseOptions;
+    auto* t = new OptionTable<O>;
+    t->Int("step", &O::step, "register frame i to frame i+K").Min(1);
+    t->Int("min_inliers", &O::min_inliers, "inliers a successful pair needs").Min(3);
+    t->Double("max_translation_error_m", &O::max_translation_error_m,
+              "translation error a successful pair stays under")
+        .Above(0.0);
+    t->Double("max_rotation_error_deg", &O::max_rotation_error_deg,
+              "rotation error a successful pair stays under")
+        .Above(0.0);
+    return t;
+  }();
+  return *table;
 }
 
 double Percentile(std::vector<double> values, double q) {

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "core/dataset.h"
+#include "core/option_table.h"
 #include "frontend/frame_processor.h"
 
 namespace ieslam {
@@ -19,7 +20,9 @@ struct PairwiseOptions {
   double max_translation_error_m = 0.05;
   double max_rotation_error_deg = 2.0;
 
-  bool Check(std::string* why) const;
+  // The options' registration: keys, help, checks (core/option_table.h).
+  static const OptionTable<PairwiseOptions>& Table();
+  bool Check(std::string* why) const { return Table().Check(*this, why); }
 };
 
 struct PairRecord {

@@ -244,21 +244,28 @@ RegistrationResult Register(const std::vector<Eigen::Vector3d>& points_a,
 
 }  // namespace
 
-bool RegistrationOptions::Check(std::string* why) const {
-  auto fail = [why](const std::string& message) {
-    if (why != nullptr) *why = message;
-    return false;
-  };
-  if (!(inlier_threshold_m > 0.0)) return fail("registration.inlier_threshold_m must be > 0");
-  if (!(inlier_noise_sigmas >= 0.0)) return fail("registration.inlier_noise_sigmas must be >= 0");
-  if (max_iterations < 1) return fail("registration.max_iterations must be >= 1");
-  if (!(probability > 0.0 && probability < 1.0))
-    return fail("registration.probability must be in (0, 1)");
-  if (min_inliers < 3) return fail("registration.min_inliers must be >= 3");
-  if (!(min_spread_m >= 0.0)) return fail("registration.min_spread_m must be >= 0");
-  if (max_refinements < 0) return fail("registration.max_refinements must be >= 0");
-  if (!(inlier_chi2 > 0.0)) return fail("registration.inlier_chi2 must be > 0");
-  return true;
+const OptionTable<RegistrationOptions>& RegistrationOptions::Table() {
+  static const OptionTable<RegistrationOptions>* table = [] {
+    using O = RegistrationOptions;
+    auto* t = new OptionTable<O>;
+    t->Double("inlier_threshold_m", &O::inlier_threshold_m, "RANSAC's inlier distance").Above(0.0);
+    t->Int("max_iterations", &O::max_iterations, "RANSAC's iterations at most").Min(1);
+    t->Double("probability", &O::probability, "RANSAC's confidence").Above(0.0).Below(1.0);
+    t->Int("min_inliers", &O::min_inliers, "inliers a registration needs").Min(3);
+    t->Double("min_spread_m", &O::min_spread_m, "how far the inliers must spread").Min(0.0);
+    t->Double("inlier_chi2", &O::inlier_chi2, "chi-square 3 dof, 0.999: Mahalanobis inlier gate")
+        .Above(0.0);
+    t->Bool("use_point_covariances", &O::use_point_covariances,
+            "1: gate and weigh by each point's covariance (rig's noise model)");
+    t->Uint("seed", &O::seed, "RANSAC's seed: the run's seed").Derived();
+    t->Double("inlier_noise_sigmas", &O::inlier_noise_sigmas,
+              "inlier distance at least this many range sigmas")
+        .Min(0.0);
+    t->Int("max_refinements", &O::max_refinements, "least-squares refinements of the inliers")
+        .Min(0);
+    return t;
+  }();
+  return *table;
 }
 
 RegistrationResult RegisterPointSets(const std::vector<Eigen::Vector3d>& points_a,

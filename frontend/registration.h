@@ -11,6 +11,8 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
+#include "core/option_table.h"
+
 namespace ieslam {
 
 struct RegistrationOptions {
@@ -48,7 +50,9 @@ struct RegistrationOptions {
   // the noise model is trusted"; the runs in docs/frontend_notes.md).
   bool use_point_covariances = false;
 
-  bool Check(std::string* why) const;
+  // The options' registration: keys, help, checks (core/option_table.h).
+  static const OptionTable<RegistrationOptions>& Table();
+  bool Check(std::string* why) const { return Table().Check(*this, why); }
 };
 
 struct RegistrationResult {

@@ -38,18 +38,31 @@ std::vector<int> SiblingGroups(const FrameFeatures& features) {
 
 }  // namespace
 
+const OptionTable<RgbdSourceOptions>& RgbdSourceOptions::Table() {
+  static const OptionTable<RgbdSourceOptions>* table = [] {
+    using O = RgbdSourceOptions;
+    auto* t = new OptionTable<O>;
+    t->Int("max_base_candidates", &O::max_base_candidates,
+           "base frames ranked by the database that are registered")
+        .Min(1);
+    t->Int("max_new_features_per_frame", &O::max_new_features_per_frame,
+           "new features a selected frame adds at most")
+        .Min(0);
+    t->Int("min_inliers_secondary", &O::min_inliers_secondary,
+           "inliers another base frame's observations need");
+    t->Require([](const O& o) {
+      return o.min_inliers_secondary >= o.frontend.registration.min_inliers
+                 ? std::string()
+                 : "min_inliers_secondary must be >= registration.min_inliers";
+    });
+    return t;
+  }();
+  return *table;
+}
+
 bool RgbdSourceOptions::Check(std::string* why) const {
-  auto fail = [why](const std::string& message) {
-    if (why != nullptr) *why = message;
-    return false;
-  };
-  if (!frontend.Check(why) || !database.Check(why) || !prefetch.Check(why)) return false;
-  if (max_base_candidates < 1) return fail("max_base_candidates must be >= 1");
-  if (max_new_features_per_frame < 0) return fail("max_new_features_per_frame must be >= 0");
-  if (min_inliers_secondary < frontend.registration.min_inliers) {
-    return fail("min_inliers_secondary must be >= registration.min_inliers");
-  }
-  return true;
+  return frontend.Check(why) && database.Check(why) && prefetch.Check(why) &&
+         Table().Check(*this, why);
 }
 
 RgbdFrameSource::RgbdFrameSource(const Dataset& dataset, const RgbdSourceOptions& options)

@@ -18,6 +18,7 @@
 
 #include "core/dataset.h"
 #include "core/frame_source.h"
+#include "core/option_table.h"
 #include "frontend/frame_prefetcher.h"
 #include "frontend/frame_processor.h"
 
@@ -38,6 +39,8 @@ struct RgbdSourceOptions {
   // Frames loaded and processed ahead on worker threads (0 workers: sequential).
   PrefetchOptions prefetch;
 
+  // The options' registration: keys, help, checks (core/option_table.h).
+  static const OptionTable<RgbdSourceOptions>& Table();
   bool Check(std::string* why) const;
 };
 

@@ -76,25 +76,19 @@ bool ParseDeltaUnit(const std::string& text, DeltaUnit* unit) {
 
 std::string DeltaUnitName(DeltaUnit unit) { return unit == DeltaUnit::kSeconds ? "s" : "f"; }
 
-bool EvaluationOptions::Check(std::string* why) const {
-  auto fail = [why](const std::string& message) {
-    if (why != nullptr) *why = message;
-    return false;
-  };
-  if (!std::isfinite(max_diff_s) || max_diff_s <= 0.0) {
-    return fail("max_diff_s must be positive and finite, got " + std::to_string(max_diff_s));
-  }
-  if (!std::isfinite(offset_s)) return fail("offset_s must be finite");
-  if (!std::isfinite(scale) || scale <= 0.0) {
-    return fail("scale must be positive and finite, got " + std::to_string(scale));
-  }
-  if (!std::isfinite(delta) || delta <= 0.0) {
-    return fail("delta must be positive and finite, got " + std::to_string(delta));
-  }
-  if (delta_unit != DeltaUnit::kSeconds && delta_unit != DeltaUnit::kFrames) {
-    return fail("delta_unit must be seconds or frames");
-  }
-  return true;
+const OptionTable<EvaluationOptions>& EvaluationOptions::Table() {
+  static const OptionTable<EvaluationOptions>* table = [] {
+    using O = EvaluationOptions;
+    auto* t = new OptionTable<O>;
+    t->Double("max_diff_s", &O::max_diff_s, "association window in seconds").Above(0.0);
+    t->Double("offset_s", &O::offset_s, "added to the estimate's timestamps");
+    t->Double("scale", &O::scale, "multiplies the estimate's translations").Above(0.0);
+    t->Double("delta", &O::delta, "RPE step").Above(0.0);
+    t->Enum("delta_unit", &O::delta_unit, ParseDeltaUnit, DeltaUnitName, "s|f",
+            "RPE step in seconds or frames");
+    return t;
+  }();
+  return *table;
 }
 
 std::size_t FindClosestIndex(const std::vector<double>& list, double value) {

@@ -12,6 +12,7 @@
 #include <Eigen/Geometry>
 
 #include "backend/evaluation/error_stats.h"
+#include "core/option_table.h"
 #include "core/timestamp_association.h"
 #include "core/trajectory.h"
 
@@ -37,7 +38,9 @@ struct EvaluationOptions {
   double delta = 1.0;
   DeltaUnit delta_unit = DeltaUnit::kSeconds;
 
-  bool Check(std::string* why) const;
+  // The options' registration: keys, help, checks (core/option_table.h).
+  static const OptionTable<EvaluationOptions>& Table();
+  bool Check(std::string* why) const { return Table().Check(*this, why); }
 };
 
 // evaluate_rpe.py's find_closest_index: a binary search over the sorted `list` that keeps the

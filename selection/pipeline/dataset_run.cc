@@ -1,7 +1,6 @@
 #include "selection/pipeline/dataset_run.h"
 
 #include <algorithm>
-#include <thread>
 
 #include <opencv2/core.hpp>
 
@@ -9,20 +8,9 @@
 #include "backend/evaluation/evaluation_io.h"
 #include "core/error.h"
 #include "core/stopwatch.h"
-#include "selection/pipeline/options_json.h"
 
 namespace ieslam {
 namespace {
-
-int Cores() { return std::max(1, static_cast<int>(std::thread::hardware_concurrency())); }
-
-// Threads that load and process frames ahead of the selector: none in the deterministic
-// single-thread mode, else one per core (the selector's own thread mostly waits for
-// processed frames, so it is not counted); more than a few only queue behind the selector.
-int PrefetchWorkers(int threads) {
-  if (threads == 1) return 0;
-  return std::clamp(threads > 0 ? threads : Cores(), 1, 3);
-}
 
 // ATE RMSE of `est` against `gt_read_back` (the ground truth as read back from its file) as
 // `ieslam evaluate` computes it from their files; -1 with a warning when it cannot be
@@ -95,32 +83,6 @@ void CollectTrajectories(const Dataset& dataset, RunResult* run) {
 
 }  // namespace
 
-bool RunOptions::Check(std::string* why) const {
-  if (dataset.empty()) {
-    if (why != nullptr) *why = "--dataset is required";
-    return false;
-  }
-  if (threads < 0) {
-    if (why != nullptr) *why = "--threads must be >= 0";
-    return false;
-  }
-  return dataset_options.Check(why) && source.Check(why) && pipeline.Check(why) && map.Check(why) &&
-         range_cloud.Check(why);
-}
-
-RunOptions RunOptions::Resolved() const {
-  RunOptions used = *this;
-  used.source.frontend.registration.seed = seed;
-  used.source.database.seed = seed;
-  used.source.prefetch.workers = PrefetchWorkers(threads);
-  if (threads > 0) used.pipeline.ba.num_threads = threads;
-  // Pairs align independently: any number of threads gives the same constraints.
-  used.pipeline.depth_alignment.num_threads = threads > 0 ? threads : Cores();
-  return used;
-}
-
-Json RunOptions::ToJson() const { return RunOptionsToJson(Resolved()); }
-
 RunResult RunOnDataset(const Dataset& dataset, const RunOptions& options,
                        const PipelineHooks& hooks) {
   std::string why;
@@ -128,7 +90,7 @@ RunResult RunOnDataset(const Dataset& dataset, const RunOptions& options,
   RunResult run;
   run.started = std::chrono::steady_clock::now();
   // OpenCV's TBB back end warns on stderr when asked for more threads than there are cores.
-  if (options.threads > 0) cv::setNumThreads(std::min(options.threads, Cores()));
+  if (options.threads > 0) cv::setNumThreads(std::min(options.threads, WorkerThreads(0)));
   const RunOptions used = options.Resolved();
   RgbdFrameSource source(dataset, used.source);
   if (used.build_map) run.map.emplace(used.map);

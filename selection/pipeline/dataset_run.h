@@ -18,27 +18,9 @@
 #include "frontend/dense_map.h"
 #include "frontend/rgbd_frame_source.h"
 #include "selection/pipeline/pipeline.h"
+#include "selection/pipeline/run_options.h"
 
 namespace ieslam {
-
-struct RunOptions {
-  std::string dataset;  // the directory, as the report names it
-  DatasetOptions dataset_options;
-  RgbdSourceOptions source;
-  PipelineOptions pipeline;
-  // With refine: the selected frames' range clouds, aligned in the refinement.
-  RangeCloudOptions range_cloud;
-  DenseMapOptions map;
-  bool build_map = true;
-  uint32_t seed = 1;  // RANSAC's and the base-frame database's
-  int threads = 0;    // 0: every core; 1: the deterministic single-thread mode
-
-  bool Check(std::string* why) const;
-  // The options as the run uses them: the seed in the front end's options, the thread count
-  // in every stage's (prefetch workers, bundle adjustment, alignment). Reports show these.
-  RunOptions Resolved() const;
-  Json ToJson() const;
-};
 
 struct RunResult {
   PipelineResult pipeline;

@@ -7,13 +7,24 @@
 
 namespace ieslam {
 
+const OptionTable<PipelineOptions>& PipelineOptions::Table() {
+  static const OptionTable<PipelineOptions>* table = [] {
+    using O = PipelineOptions;
+    auto* t = new OptionTable<O>;
+    t->Bool("refine", &O::refine, "bundle-adjust the selected frames (refined.tum)");
+    t->Require([](const O& o) {
+      return o.refine && o.selector.kind == SelectorKind::kDeadReckoning
+                 ? "--refine needs a filter: not available with --selector deadreckoning"
+                 : "";
+    });
+    return t;
+  }();
+  return *table;
+}
+
 bool PipelineOptions::Check(std::string* why) const {
-  if (refine && selector.kind == SelectorKind::kDeadReckoning) {
-    if (why != nullptr)
-      *why = "--refine needs a filter: not available with --selector deadreckoning";
-    return false;
-  }
-  return selector.Check(why) && filter.Check(why) && ba.Check(why) && depth_alignment.Check(why);
+  return Table().Check(*this, why) && selector.Check(why) && filter.Check(why) && ba.Check(why) &&
+         depth_alignment.Check(why);
 }
 
 PipelineResult RunPipeline(FrameSource* source, const PinholeCamera& camera,

@@ -22,6 +22,7 @@
 #include "backend/slam_estimate.h"
 #include "core/camera.h"
 #include "core/frame_source.h"
+#include "core/option_table.h"
 #include "selection/keyframe_selector.h"
 #include "selection/pipeline/refinement.h"
 
@@ -35,6 +36,9 @@ struct PipelineOptions {
   // With refine and range clouds: the clouds' pairwise alignment in the refinement.
   DepthAlignmentOptions depth_alignment;
 
+  // `refine` (the stages' options have their own tables).
+  static const OptionTable<PipelineOptions>& Table();
+  // Every stage's options and the table's.
   bool Check(std::string* why) const;
 };
 

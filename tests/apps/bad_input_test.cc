@@ -461,7 +461,7 @@ TEST_F(BadInputTest, OutOfRangeOptionsAreExit2NamingTheFlag) {
       {"--first -1", "--first"},
       {"--threads -2", "--threads"},
       {"--seed abc", "--seed must be an integer, got 'abc'"},
-      {"--selector best", "--selector must be info, all, interval or deadreckoning, got 'best'"},
+      {"--selector best", "--selector must be one of info|all|interval|deadreckoning, got 'best'"},
       {"--format bag", "bag"},
       // Refused before any frame is read (the lists-only dataset has no images).
       {"--selector deadreckoning --refine", "--refine needs a filter"},
@@ -481,8 +481,7 @@ TEST_F(BadInputTest, SimulateConfigIsCheckedNamingFileAndKey) {
   const fs::path out = root_ / "o9";
   Result r = RunIeslam("simulate --output " + out.string() + " --config " + config.string());
   EXPECT_EQ(r.exit_code, 2) << r.output;
-  EXPECT_TRUE(
-      Contains(r.output, config.string() + ": bundle adjustment: rejection_chi2 must be >= 0"))
+  EXPECT_TRUE(Contains(r.output, config.string() + ": ba.rejection_chi2 must be >= 0.0, got -1.0"))
       << r.output;
   const std::string missing = (root_ / "no_such.yaml").string();
   // A config file that is missing or a directory is bad usage, as --calib's is.

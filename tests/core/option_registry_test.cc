@@ -132,7 +132,7 @@ TEST(OptionRegistryTest, BadFilesAndValuesNameTheFileAndTheOption) {
     Registry().Set(&root, "threads", {"300"}, "--threads");
     FAIL();
   } catch (const ConfigError& e) {
-    EXPECT_EQ(std::string(e.what()), "--threads: threads must be <= 256, got 300");
+    EXPECT_EQ(std::string(e.what()), "--threads: threads must be in [0, 256], got 300");
   }
 }
 

@@ -72,8 +72,8 @@ TEST(OptionTableTest, DefaultsPassAndReportInRegistrationOrder) {
 
 TEST(OptionTableTest, ValuesAreParsedAndChecked) {
   EXPECT_EQ(ReasonOf("count", {"4"}), "ok");
-  EXPECT_EQ(ReasonOf("count", {"11"}), "must be <= 10, got 11");
-  EXPECT_EQ(ReasonOf("count", {"0"}), "must be >= 1, got 0");
+  EXPECT_EQ(ReasonOf("count", {"11"}), "must be in [1, 10], got 11");
+  EXPECT_EQ(ReasonOf("count", {"0"}), "must be in [1, 10], got 0");
   EXPECT_EQ(ReasonOf("count", {"2.5"}), "must be an integer, got '2.5'");
   EXPECT_EQ(ReasonOf("count", {"3", true}), "must be an integer, got the string '3'");
   // An integer too large for its type is refused, not wrapped.
@@ -93,7 +93,7 @@ TEST(OptionTableTest, CheckNamesTheKeyAndRunsTheCrossChecks) {
   options.count = 20;
   std::string why;
   EXPECT_FALSE(ToyOptions::Table().Check(options, &why));
-  EXPECT_EQ(why, "count must be <= 10, got 20");
+  EXPECT_EQ(why, "count must be in [1, 10], got 20");
   options = ToyOptions();
   options.low = 0.3;
   EXPECT_FALSE(ToyOptions::Table().Check(options, &why));
