@@ -96,7 +96,8 @@ InformationFilter::InformationFilter(const InformationFilterOptions& options,
     : options_(options), camera_(camera), cholesky_() {
   std::string why;
   if (!options_.Check(&why)) throw ConfigError("InformationFilterOptions: " + why);
-  cholesky_ = std::make_unique<SparseCholesky>(options_.ordering, options_.spare_capacity);
+  cholesky_ = std::make_unique<SparseCholesky>(
+      SparseCholeskyOptions{options_.ordering, options_.spare_capacity});
   if (options_.max_dense_pose_dim >= 6) {
     PoseSchurOptions schur_options;
     schur_options.cg_tolerance = options_.cg_tolerance;
@@ -447,7 +448,7 @@ double InformationFilter::LogDetExpandedInformation(
       << num_new_features_to_count;
   UpperColumnStorage expanded = matrix_;
   AppendToMatrix(lin, 0.0, &expanded);
-  SparseCholesky cholesky(options_.ordering);
+  SparseCholesky cholesky({options_.ordering});
   if (!cholesky.Factorize(expanded, true)) return -std::numeric_limits<double>::infinity();
   return cholesky.LogDet();
 }

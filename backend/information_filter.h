@@ -26,7 +26,7 @@
 #include <Eigen/SparseCore>
 
 #include "backend/pose_schur_factor.h"
-#include "backend/sparse_information.h"
+#include "backend/sparse_cholesky.h"
 #include "core/camera.h"
 #include "core/observation.h"
 #include "core/pose.h"
@@ -36,11 +36,11 @@ namespace ieslam {
 struct InformationFilterOptions {
   // Diagonal of the first pose's information block: the first pose is the origin.
   double anchor_information = 1e10;
-  // Nested dissection: on the paper's simulation ~0.6x AMD's fill-in flops, and in-place
-  // updates 2-4x cheaper than after AMD (the touched paths to the root are shorter).
+  // Nested dissection: less fill-in than AMD, and the in-place updates after it touch
+  // shorter paths to the root (docs/filter_internals.md).
   FillReducingOrdering ordering = FillReducingOrdering::kMetis;
   // Room kept in the factor for new variables, as a fraction of the state at each full
-  // factorisation: updates are made in place until it runs out (sparse_information.h);
+  // factorisation: updates are made in place until it runs out (backend/sparse_cholesky.h);
   // 0 refactors on every update.
   double spare_capacity = 0.25;
   // Up to this pose dimension (6 per pose) the matrix is factored through its dense pose
