@@ -244,7 +244,7 @@ void InformationFilter::Update(int frame_id, const Vector6d& T_w_c,
   // and it factorises the whole matrix).
   if (schur_ != nullptr && 6 * (num_poses() + 1) > options_.max_dense_pose_dim) schur_.reset();
   std::vector<DiagonalIncrement> increments;
-  std::vector<SchurObservation> schur_observations;
+  std::vector<ObservationBlocks> schur_observations;
   for (int b = 0; b < static_cast<int>(lin.blocks.size()); ++b) {
     const Linearization::Block& block = lin.blocks[b];
     const int offset =
