@@ -1,5 +1,5 @@
-// A Ceres bundle adjustment over the selected poses and 3-D features (METHOD.md §6): the
-// smoothing reference that the filter is checked against, and a batch refinement.
+// A Ceres bundle adjustment over the selected poses and 3-D features: the smoothing
+// reference that the filter is checked against, and a batch refinement.
 //
 // It minimises 1/2 sum_k |W_k (h(T_w_c, p_w) - z_k)|^2 with the filter's own (u, v, d) model
 // and the filter's own Q_k (W_k^T W_k = Q_k^-1; backend/ba_residuals.h), so that with the

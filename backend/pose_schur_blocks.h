@@ -21,16 +21,9 @@
 
 #include <Eigen/Core>
 
-namespace ieslam {
+#include "backend/information_factor.h"
 
-// One observation of a feature from the pose being added: its blocks of the information
-// matrix.
-struct ObservationBlocks {
-  int feature_offset = 0;                          // state offset of the feature
-  bool is_new = false;                             // the feature enters with this pose
-  Eigen::Matrix3d I_ff = Eigen::Matrix3d::Zero();  // added to the feature's block
-  Eigen::Matrix<double, 6, 3> I_pf = Eigen::Matrix<double, 6, 3>::Zero();  // the coupling
-};
+namespace ieslam {
 
 class PoseSchurBlocks {
  private:

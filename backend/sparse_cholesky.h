@@ -55,11 +55,9 @@ struct DiagonalIncrement {
 
 class SparseCholesky {
  public:
-  // Throws ConfigError when the options fail Check.
+  // Throws ConfigError when the options fail Check. Not copyable: it owns the CHOLMOD state.
   explicit SparseCholesky(const SparseCholeskyOptions& options);
   ~SparseCholesky();
-  SparseCholesky(const SparseCholesky&) = delete;
-  SparseCholesky& operator=(const SparseCholesky&) = delete;
 
   // Full factorisation: fill-reducing ordering, symbolic analysis and numeric factorisation
   // (`pattern_changed` is kept for the callers; the analysis is always redone). False if

@@ -75,6 +75,12 @@ std::vector<FeatureObservation> Observe(const Scene& scene, int i, bool noisy, s
   return observations;
 }
 
+// The first two poses of `scene`, from noise-free observations.
+void AddFirstTwoPoses(const Scene& scene, std::mt19937* rng, InformationFilter* filter) {
+  filter->AddFirstPose(scene.frame_ids[0], scene.poses[0], Observe(scene, 0, false, rng));
+  filter->AddPose(scene.frame_ids[1], scene.poses[1], Observe(scene, 1, false, rng));
+}
+
 Vector6d Perturb(const Vector6d& pose, double metres, double radians, std::mt19937* rng) {
   std::normal_distribution<double> normal(0.0, 1.0);
   Vector6d perturbed = pose;
@@ -183,8 +189,7 @@ TEST_P(InformationFilterTest, TooFewKnownFeaturesFailsCleanly) {
   std::mt19937 rng(4);
   const Scene scene = MakeScene(3, 50, &rng);
   InformationFilter filter(DefaultOptions(), scene.camera);
-  filter.AddFirstPose(scene.frame_ids[0], scene.poses[0], Observe(scene, 0, false, &rng));
-  filter.AddPose(scene.frame_ids[1], scene.poses[1], Observe(scene, 1, false, &rng));
+  AddFirstTwoPoses(scene, &rng, &filter);
   const int dim = filter.state_dim();
   const double log_det = filter.LogDetInformation();
   const Eigen::VectorXd state = filter.state();
@@ -394,6 +399,36 @@ TEST_P(InformationFilterTest, GainIsMinusInfinityWhenThePoseIsUndetermined) {
   const FeatureCovariance known = filter.JointFeatureCovariance({one_known[0].feature_id});
   EXPECT_EQ(filter.InformationGain(scene.poses[1], one_known, 0, known),
             -std::numeric_limits<double>::infinity());
+}
+
+// A candidate whose registration puts a known feature behind its camera, or whose
+// observations are malformed, cannot be linearised: -infinity, not an exception.
+TEST_P(InformationFilterTest, GainIsMinusInfinityWhenTheObservationsCannotBeLinearised) {
+  std::mt19937 rng(19);
+  const Scene scene = MakeScene(4, 60, &rng);
+  InformationFilter filter(DefaultOptions(), scene.camera);
+  AddFirstTwoPoses(scene, &rng, &filter);
+  const std::vector<FeatureObservation> observations = Observe(scene, 2, false, &rng);
+  std::vector<int64_t> ids;
+  for (const FeatureObservation& obs : observations) ids.push_back(obs.feature_id);
+  const FeatureCovariance known = filter.JointFeatureCovariance(ids);
+  const int new_features = filter.CountNewFeatures(observations);
+  GainTerms terms;
+  ASSERT_TRUE(std::isfinite(
+      filter.InformationGain(scene.poses[2], observations, new_features, known, &terms)));
+  // Turned about its y axis by pi: every feature lies behind the camera.
+  Vector6d turned = scene.poses[2];
+  turned[4] += M_PI;
+  GainTerms untouched = terms;
+  EXPECT_EQ(filter.InformationGain(turned, observations, new_features, known, &untouched),
+            -std::numeric_limits<double>::infinity());
+  EXPECT_EQ(untouched.total(), terms.total());
+  std::vector<FeatureObservation> doubled = observations;
+  doubled.push_back(doubled.front());
+  EXPECT_EQ(filter.InformationGain(scene.poses[2], doubled, new_features, known),
+            -std::numeric_limits<double>::infinity());
+  // Adding such a frame is refused, naming it.
+  EXPECT_THROW(filter.AddPose(99, turned, observations), DataError);
 }
 
 TEST_P(InformationFilterTest, OptionsCheckRejectsANegativeSpareCapacity) {

@@ -5,6 +5,7 @@
 // addition densely.
 #pragma once
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <random>
@@ -13,7 +14,8 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Core>
 
-#include "backend/pose_schur_blocks.h"
+#include "backend/information_factor.h"
+#include "backend/upper_column_storage.h"
 
 namespace ieslam {
 namespace testing {
@@ -24,6 +26,42 @@ struct PoseAddition {
   Eigen::Matrix<double, 6, 6> I_pp = Eigen::Matrix<double, 6, 6>::Zero();
   std::vector<ObservationBlocks> observations;
 };
+
+// The update `a` brings to a factor of the matrix.
+inline InformationUpdate UpdateOf(const PoseAddition& a) {
+  InformationUpdate update;
+  update.old_dim = a.pose_offset;
+  for (const ObservationBlocks& obs : a.observations) update.old_dim -= obs.is_new ? 3 : 0;
+  update.pose_block = a.I_pp;
+  update.observations = a.observations;
+  return update;
+}
+
+// Appends `a` to `matrix` as the filter does: the new features' columns, then the pose's
+// (its couplings in them), and the re-observed features' blocks added.
+inline void AppendToMatrix(const PoseAddition& a, UpperColumnStorage* matrix) {
+  std::vector<const ObservationBlocks*> sorted;  // by feature offset
+  for (const ObservationBlocks& obs : a.observations) sorted.push_back(&obs);
+  std::sort(sorted.begin(), sorted.end(),
+            [](const auto* x, const auto* y) { return x->feature_offset < y->feature_offset; });
+  for (const ObservationBlocks* obs : sorted) {
+    if (!obs->is_new) {
+      matrix->AddToDiagonalBlock(obs->feature_offset, obs->I_ff);
+      continue;
+    }
+    for (int k = 0; k < 3; ++k) {
+      matrix->StartColumn();
+      for (int r = 0; r <= k; ++r) matrix->Append(obs->feature_offset + r, obs->I_ff(r, k));
+    }
+  }
+  for (int k = 0; k < 6; ++k) {
+    matrix->StartColumn();
+    for (const ObservationBlocks* obs : sorted) {
+      for (int r = 0; r < 3; ++r) matrix->Append(obs->feature_offset + r, obs->I_pf(k, r));
+    }
+    for (int r = 0; r <= k; ++r) matrix->Append(a.pose_offset + r, a.I_pp(r, k));
+  }
+}
 
 struct RandomPoseProblem {
   explicit RandomPoseProblem(unsigned seed) : rng(seed) {}
@@ -97,6 +135,17 @@ struct RandomPoseProblem {
   int dim = 0;
   Eigen::MatrixXd I;
 };
+
+// A next pose with no information, re-observing one feature: the matrix with it is not
+// positive definite.
+inline PoseAddition SingularPose(const RandomPoseProblem& problem) {
+  PoseAddition singular;
+  singular.pose_offset = problem.dim;
+  ObservationBlocks obs;
+  obs.feature_offset = problem.offset_of.begin()->second;
+  singular.observations = {obs};
+  return singular;
+}
 
 }  // namespace testing
 }  // namespace ieslam
