@@ -50,10 +50,9 @@ struct BundleAdjustmentOptions {
   // a true observation fails it once in a thousand. When the median squared residual says
   // Q understates the noise, the gate widens by that factor (never narrows). The front
   // end's 3-D RANSAC threshold is sized for the range noise and isotropic, so it lets
-  // through wrong associations off by several centimetres across the ray (tens of pixels):
-  // on the synthetic pair scene 0.8 % of the observations, carrying half of the cost at
-  // ground truth, and the least-squares optimum follows them. 0: keep every observation
-  // (the filter's exact problem).
+  // through wrong associations off by several centimetres across the ray (tens of pixels),
+  // few but carrying much of the cost, and the least-squares optimum follows them
+  // (docs/filter_internals.md). 0: keep every observation (the filter's exact problem).
   double rejection_chi2 = 16.27;
   int max_rejection_rounds = 5;
   // Features are eliminated first (the Schur complement leaves the small pose system);
