@@ -56,13 +56,10 @@ struct InformationFilterOptions {
   // the cheaper (backend/pose_schur_factor.h); false refactors on every update. Updates that
   // follow a query stay exact (the selector queries once per added frame).
   // CG stops when the error's Mahalanobis norm is below cg_tolerance (up to the float
-  // preconditioner's relative error), so each state component is within cg_tolerance of its
-  // standard deviation of the exact solve. Solve errors do not compound (each solve is
-  // bounded on its own, against the exact I and i); each only shifts later linearisation
-  // points by a fraction of a standard deviation, a second-order effect that stays in I and
-  // i (linearising at the estimate instead of the truth shifts them by about one). The
-  // default is far below the digits the filter's results are reported to
-  // (docs/filter_internals.md has the measurements).
+  // preconditioner's relative error): each state component is within cg_tolerance of its
+  // standard deviation of the exact solve. The errors do not compound (each solve is bounded
+  // on its own, against the exact I and i), and the default lies far below the digits the
+  // filter's results are reported to (docs/filter_internals.md).
   bool iterative_recovery = true;
   double cg_tolerance = 1e-3;
   int cg_max_iterations = 60;

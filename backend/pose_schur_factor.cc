@@ -1,7 +1,9 @@
 #include "backend/pose_schur_factor.h"
 
 #include <algorithm>
+#include <cmath>
 #include <sstream>
+#include <string>
 
 #include <glog/logging.h>
 
