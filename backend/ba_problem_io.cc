@@ -62,6 +62,67 @@ class LineReader {
   std::string where_;
 };
 
+// The records after their name: `camera <width> <height> <fx> <fy> <cx> <cy>`.
+void ReadCamera(LineReader* read, PinholeCamera* c) {
+  c->width = static_cast<int>(read->Integer("width"));
+  c->height = static_cast<int>(read->Integer("height"));
+  c->fx = read->Number("fx");
+  c->fy = read->Number("fy");
+  c->cx = read->Number("cx");
+  c->cy = read->Number("cy");
+  std::string why;
+  if (!c->Check(&why)) throw DataError(read->where() + ": " + why);
+}
+
+// `pose <frame> <timestamp> <r00 ... r22> <tx ty tz>`.
+void ReadPose(LineReader* read, StoredBaProblem* stored) {
+  const int frame = static_cast<int>(read->Integer("frame"));
+  const double timestamp = read->Number("timestamp");
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  for (int r = 0; r < 3; ++r) {
+    for (int k = 0; k < 3; ++k) T.linear()(r, k) = read->Number("rotation");
+  }
+  for (int r = 0; r < 3; ++r) T.translation()(r) = read->Number("translation");
+  const Eigen::Matrix3d R = T.linear();
+  if ((R.transpose() * R - Eigen::Matrix3d::Identity()).norm() > 1e-6 || R.determinant() < 0) {
+    throw DataError(read->where() + ": pose " + std::to_string(frame) + " has no rotation matrix");
+  }
+  if (!stored->problem.T_w_c.emplace(frame, T).second) {
+    throw DataError(read->where() + ": pose " + std::to_string(frame) + " given twice");
+  }
+  stored->timestamps[frame] = timestamp;
+}
+
+// `feature <id> <x y z>`.
+void ReadFeature(LineReader* read, BundleAdjustmentProblem* p) {
+  const int64_t id = read->Integer("feature id");
+  Eigen::Vector3d p_w;
+  for (int r = 0; r < 3; ++r) p_w(r) = read->Number("feature position");
+  if (!p->p_w.emplace(id, p_w).second) {
+    throw DataError(read->where() + ": feature " + std::to_string(id) + " given twice");
+  }
+}
+
+// `obs <frame> <feature id> <u v d> <Q00 Q01 Q02 Q11 Q12 Q22>`.
+void ReadObservation(LineReader* read, BundleAdjustmentProblem* p) {
+  BundleAdjustmentObservation o;
+  o.frame_id = static_cast<int>(read->Integer("frame"));
+  o.observation.feature_id = read->Integer("feature id");
+  if (!p->T_w_c.count(o.frame_id) || !p->p_w.count(o.observation.feature_id)) {
+    throw DataError(read->where() + ": observation of an unknown pose " +
+                    std::to_string(o.frame_id) + " or feature " +
+                    std::to_string(o.observation.feature_id) + " (poses and features come first)");
+  }
+  for (int r = 0; r < 3; ++r) o.observation.z(r) = read->Number("measurement");
+  for (int r = 0; r < 3; ++r) {
+    for (int k = r; k < 3; ++k) o.observation.Q(r, k) = o.observation.Q(k, r) = read->Number("Q");
+  }
+  if (o.observation.Q.llt().info() != Eigen::Success) {
+    throw DataError(read->where() + ": Q is not positive definite");
+  }
+  p->observations.push_back(o);
+}
+
 }  // namespace
 
 void WriteBaProblem(const std::string& path, const StoredBaProblem& stored) {
@@ -122,61 +183,16 @@ StoredBaProblem ReadBaProblem(const std::string& path) {
         throw DataError(read.where() + ": unsupported version");
       header = true;
     } else if (record == "camera") {
-      PinholeCamera& c = stored.camera;
-      c.width = static_cast<int>(read.Integer("width"));
-      c.height = static_cast<int>(read.Integer("height"));
-      c.fx = read.Number("fx");
-      c.fy = read.Number("fy");
-      c.cx = read.Number("cx");
-      c.cy = read.Number("cy");
-      std::string why;
-      if (!c.Check(&why)) throw DataError(read.where() + ": " + why);
+      ReadCamera(&read, &stored.camera);
       camera = true;
     } else if (record == "anchor") {
       p.anchor_frame_id = static_cast<int>(read.Integer("anchor frame"));
     } else if (record == "pose") {
-      const int frame = static_cast<int>(read.Integer("frame"));
-      const double timestamp = read.Number("timestamp");
-      Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-      for (int r = 0; r < 3; ++r) {
-        for (int k = 0; k < 3; ++k) T.linear()(r, k) = read.Number("rotation");
-      }
-      for (int r = 0; r < 3; ++r) T.translation()(r) = read.Number("translation");
-      const Eigen::Matrix3d R = T.linear();
-      if ((R.transpose() * R - Eigen::Matrix3d::Identity()).norm() > 1e-6 || R.determinant() < 0) {
-        throw DataError(read.where() + ": pose " + std::to_string(frame) +
-                        " has no rotation matrix");
-      }
-      if (!p.T_w_c.emplace(frame, T).second) {
-        throw DataError(read.where() + ": pose " + std::to_string(frame) + " given twice");
-      }
-      stored.timestamps[frame] = timestamp;
+      ReadPose(&read, &stored);
     } else if (record == "feature") {
-      const int64_t id = read.Integer("feature id");
-      Eigen::Vector3d p_w;
-      for (int r = 0; r < 3; ++r) p_w(r) = read.Number("feature position");
-      if (!p.p_w.emplace(id, p_w).second) {
-        throw DataError(read.where() + ": feature " + std::to_string(id) + " given twice");
-      }
+      ReadFeature(&read, &p);
     } else if (record == "obs") {
-      BundleAdjustmentObservation o;
-      o.frame_id = static_cast<int>(read.Integer("frame"));
-      o.observation.feature_id = read.Integer("feature id");
-      if (!p.T_w_c.count(o.frame_id) || !p.p_w.count(o.observation.feature_id)) {
-        throw DataError(read.where() + ": observation of an unknown pose " +
-                        std::to_string(o.frame_id) + " or feature " +
-                        std::to_string(o.observation.feature_id) +
-                        " (poses and features come first)");
-      }
-      for (int r = 0; r < 3; ++r) o.observation.z(r) = read.Number("measurement");
-      for (int r = 0; r < 3; ++r) {
-        for (int k = r; k < 3; ++k)
-          o.observation.Q(r, k) = o.observation.Q(k, r) = read.Number("Q");
-      }
-      if (o.observation.Q.llt().info() != Eigen::Success) {
-        throw DataError(read.where() + ": Q is not positive definite");
-      }
-      p.observations.push_back(o);
+      ReadObservation(&read, &p);
     } else {
       throw DataError(read.where() + ": unknown record '" + record + "'");
     }

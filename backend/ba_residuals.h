@@ -1,5 +1,5 @@
-// The bundle adjustment's residual: the filter's (u, v, d) observation (METHOD.md §3,
-// core/observation.h) of a world point from a camera pose, whitened by its noise Q.
+// The bundle adjustment's residual: the filter's (u, v, d) observation (Zhou et al. 2008,
+// eqs. 4-8; core/observation.h) of a world point from a camera pose, whitened by its noise Q.
 //
 // The pose is held as a unit quaternion q_w_c (Eigen's x, y, z, w storage, the layout
 // ceres::EigenQuaternionManifold expects) and a translation t_w_c, camera-to-world, so that

@@ -193,6 +193,276 @@ BundleAdjustmentResult::ResidualCheck CheckResiduals(const BundleAdjustmentProbl
   return check;
 }
 
+// One bundle adjustment: the Ceres problem over the parameters, its residual blocks per
+// observation (index into problem.observations) and per relative pose, and how many
+// residuals use each parameter block, so that a rejected observation's blocks can leave the
+// problem with it.
+class BundleAdjustmentRun {
+ public:
+  BundleAdjustmentRun(const BundleAdjustmentProblem& problem, const PinholeCamera& camera,
+                      const BundleAdjustmentOptions& options, BundleAdjustmentResult* result)
+      : problem_(problem),
+        camera_(camera),
+        options_(options),
+        result_(result),
+        params_(problem),
+        ceres_problem_(ProblemOptions()) {
+    if (options.robust_loss == BaRobustLoss::kHuber) {
+      loss_ = std::make_unique<ceres::HuberLoss>(options.huber_scale);
+    }
+    block_of_.assign(problem.observations.size(), nullptr);
+  }
+
+  // The residual blocks, the gauge, and the solver. Throws DataError (AddObservations).
+  void Build(int anchor_id) {
+    AddObservations();
+    AddRelativePoses();
+    if (frame_uses_.count(anchor_id) > 0) {
+      ceres_problem_.SetParameterBlockConstant(params_.q_w_c(anchor_id));
+      ceres_problem_.SetParameterBlockConstant(params_.t_w_c(anchor_id));
+    }
+    SetSolverOptions();
+  }
+
+  // Solves from the current values; again after each round of rejections.
+  void Solve() {
+    if (ceres_problem_.NumResidualBlocks() == 0) {
+      summary_ = ceres::Solver::Summary();
+      return;
+    }
+    if (options_.linear_solver == BaLinearSolver::kSparseSchur) {
+      // Features first: eliminating them leaves the reduced camera system of the poses.
+      auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
+      for (const auto& [feature_id, uses] : feature_uses_) {
+        ordering->AddElementToGroup(params_.p_w(feature_id), 0);
+      }
+      for (const auto& [frame_id, uses] : frame_uses_) {
+        ordering->AddElementToGroup(params_.q_w_c(frame_id), 1);
+        ordering->AddElementToGroup(params_.t_w_c(frame_id), 1);
+      }
+      solver_options_.linear_solver_ordering = ordering;
+    }
+    ceres::Solve(solver_options_, &ceres_problem_, &summary_);
+    if (first_solve_) result_->initial_cost = summary_.initial_cost;
+    first_solve_ = false;
+    result_->iterations += static_cast<int>(summary_.iterations.size());
+  }
+
+  bool usable() const { return summary_.IsSolutionUsable(); }
+
+  // Removes the observations and relative poses outside the gate; false if there was none.
+  bool RejectOutliers();
+  // The result's poses, features, costs and diagnostics (solve_time_s from `start`).
+  void Collect(int anchor_id, std::chrono::steady_clock::time_point start);
+
+ private:
+  static ceres::Problem::Options ProblemOptions() {
+    ceres::Problem::Options problem_options;
+    problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+    problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+    problem_options.enable_fast_removal = true;  // rejected observations leave one by one
+    return problem_options;
+  }
+
+  void AddObservations();
+  void AddRelativePoses();
+  void SetSolverOptions();
+  // The squared whitened norm of each block still in the problem (infinite where it cannot
+  // be evaluated), and the gate: `gate` widened by the kept norms' variance factor, median /
+  // chi-square median, robust to the outliers themselves. Where Q understates the noise
+  // (real data: calibration, unmodelled distortion) the gate widens; it never narrows (a Q
+  // that overstates the noise keeps it).
+  double NormsAndGate(const std::vector<ceres::ResidualBlockId>& blocks, double median, double gate,
+                      std::vector<double>* norms, double* variance_factor);
+  // A block no residual uses any more leaves too: Ceres' ordering and covariance would
+  // meet a parameter the problem does not determine.
+  void ReleaseFrame(int frame_id);
+
+  const BundleAdjustmentProblem& problem_;
+  const PinholeCamera& camera_;
+  const BundleAdjustmentOptions& options_;
+  BundleAdjustmentResult* result_;
+  Parameters params_;
+  // One loss for every residual, owned here rather than by the problem.
+  std::unique_ptr<ceres::LossFunction> loss_;
+  ceres::EigenQuaternionManifold quaternion_manifold_;
+  ceres::Problem ceres_problem_;
+  std::vector<ceres::ResidualBlockId> block_of_;
+  std::vector<ceres::ResidualBlockId> relative_block_;
+  std::map<int, int> frame_uses_;
+  std::map<int64_t, int> feature_uses_;
+  ceres::Solver::Options solver_options_;
+  ceres::Solver::Summary summary_;
+  bool first_solve_ = true;
+};
+
+void BundleAdjustmentRun::AddObservations() {
+  for (size_t k = 0; k < problem_.observations.size(); ++k) {
+    const BundleAdjustmentObservation& obs = problem_.observations[k];
+    const FeatureObservation& o = obs.observation;
+    if (!params_.HasPose(obs.frame_id)) throw DataError(ObservationName(obs) + ": unknown frame");
+    if (!params_.HasFeature(o.feature_id)) {
+      throw DataError(ObservationName(obs) + ": unknown feature");
+    }
+    Eigen::Matrix3d W;
+    if (!o.z.allFinite() || !SqrtInformation(o.Q, &W)) {
+      throw DataError(ObservationName(obs) +
+                      ": z is not finite or Q is not symmetric positive definite");
+    }
+    const Eigen::Vector3d p_c =
+        problem_.T_w_c.at(obs.frame_id).inverse() * problem_.p_w.at(o.feature_id);
+    if (!(p_c.z() > options_.min_depth_m)) {
+      throw DataError(ObservationName(obs) + ": the point is behind the camera (z = " +
+                      std::to_string(p_c.z()) + " m) at the initial estimate");
+    }
+    double* q = params_.q_w_c(obs.frame_id);
+    block_of_[k] = ceres_problem_.AddResidualBlock(
+        UvdResidual::Create(camera_, o.z, W, options_.min_depth_m), loss_.get(), q,
+        params_.t_w_c(obs.frame_id), params_.p_w(o.feature_id));
+    if (frame_uses_[obs.frame_id]++ == 0) ceres_problem_.SetManifold(q, &quaternion_manifold_);
+    ++feature_uses_[o.feature_id];
+  }
+}
+
+void BundleAdjustmentRun::AddRelativePoses() {
+  for (const RelativePoseConstraint& c : problem_.relative_poses) {
+    const std::string name = "bundle adjustment: relative pose of frames " +
+                             std::to_string(c.frame_i) + " and " + std::to_string(c.frame_j);
+    if (!params_.HasPose(c.frame_i) || !params_.HasPose(c.frame_j) || c.frame_i == c.frame_j) {
+      throw DataError(name + ": unknown or repeated frame");
+    }
+    if (!c.sqrt_information.allFinite() || !c.T_sj_si.matrix().allFinite() ||
+        !c.T_c_s.matrix().allFinite()) {
+      throw DataError(name + ": not finite");
+    }
+    relative_block_.push_back(ceres_problem_.AddResidualBlock(
+        RelativePoseResidual::Create(c.T_sj_si, c.T_c_s, c.sqrt_information), nullptr,
+        params_.q_w_c(c.frame_i), params_.t_w_c(c.frame_i), params_.q_w_c(c.frame_j),
+        params_.t_w_c(c.frame_j)));
+    for (const int frame_id : {c.frame_i, c.frame_j}) {
+      if (frame_uses_[frame_id]++ == 0) {
+        ceres_problem_.SetManifold(params_.q_w_c(frame_id), &quaternion_manifold_);
+      }
+    }
+  }
+}
+
+void BundleAdjustmentRun::SetSolverOptions() {
+  solver_options_.minimizer_type = ceres::TRUST_REGION;
+  solver_options_.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
+  solver_options_.linear_solver_type = ToCeres(options_.linear_solver);
+  solver_options_.sparse_linear_algebra_library_type = ceres::SUITE_SPARSE;
+  solver_options_.max_num_iterations = options_.max_iterations;
+  solver_options_.function_tolerance = options_.function_tolerance;
+  solver_options_.gradient_tolerance = options_.gradient_tolerance;
+  solver_options_.parameter_tolerance = options_.parameter_tolerance;
+  solver_options_.num_threads = options_.num_threads;
+  solver_options_.logging_type = ceres::SILENT;
+  solver_options_.minimizer_progress_to_stdout = false;
+}
+
+double BundleAdjustmentRun::NormsAndGate(const std::vector<ceres::ResidualBlockId>& blocks,
+                                         double median, double gate, std::vector<double>* norms,
+                                         double* variance_factor) {
+  norms->assign(blocks.size(), 0.0);
+  std::vector<double> kept;
+  for (size_t k = 0; k < blocks.size(); ++k) {
+    if (blocks[k] == nullptr) continue;
+    double half_squared_norm = 0.0;
+    const bool evaluated = ceres_problem_.EvaluateResidualBlock(
+        blocks[k], /*apply_loss_function=*/false, &half_squared_norm, nullptr, nullptr);
+    (*norms)[k] = evaluated ? 2.0 * half_squared_norm : std::numeric_limits<double>::infinity();
+    kept.push_back((*norms)[k]);
+  }
+  if (kept.empty()) return std::numeric_limits<double>::infinity();
+  const auto middle = kept.begin() + kept.size() / 2;
+  std::nth_element(kept.begin(), middle, kept.end());
+  *variance_factor = std::max(1.0, *middle / median);
+  return gate * *variance_factor;
+}
+
+void BundleAdjustmentRun::ReleaseFrame(int frame_id) {
+  if (--frame_uses_[frame_id] == 0) {
+    frame_uses_.erase(frame_id);
+    ceres_problem_.RemoveParameterBlock(params_.q_w_c(frame_id));
+    ceres_problem_.RemoveParameterBlock(params_.t_w_c(frame_id));
+  }
+}
+
+bool BundleAdjustmentRun::RejectOutliers() {
+  std::vector<double> squared_norm, relative_norm;
+  const double gate = NormsAndGate(block_of_, kChiSquare3Median, options_.rejection_chi2,
+                                   &squared_norm, &result_->rejection_variance_factor);
+  // Relative poses on the same scale: a wrong alignment disagrees with the others.
+  double relative_factor = 1.0;
+  const double relative_gate =
+      NormsAndGate(relative_block_, kChiSquare6Median, SixDofGate(options_.rejection_chi2),
+                   &relative_norm, &relative_factor);
+  bool rejected = false;
+  for (size_t k = 0; k < block_of_.size(); ++k) {
+    if (block_of_[k] == nullptr || !(squared_norm[k] > gate)) continue;
+    const BundleAdjustmentObservation& obs = problem_.observations[k];
+    ceres_problem_.RemoveResidualBlock(block_of_[k]);
+    block_of_[k] = nullptr;
+    rejected = true;
+    ReleaseFrame(obs.frame_id);
+    if (--feature_uses_[obs.observation.feature_id] == 0) {
+      feature_uses_.erase(obs.observation.feature_id);
+      ceres_problem_.RemoveParameterBlock(params_.p_w(obs.observation.feature_id));
+    }
+  }
+  for (size_t k = 0; k < relative_block_.size(); ++k) {
+    if (relative_block_[k] == nullptr || !(relative_norm[k] > relative_gate)) continue;
+    ceres_problem_.RemoveResidualBlock(relative_block_[k]);
+    relative_block_[k] = nullptr;
+    rejected = true;
+    ++result_->rejected_relative_poses;
+    ReleaseFrame(problem_.relative_poses[k].frame_i);
+    ReleaseFrame(problem_.relative_poses[k].frame_j);
+  }
+  return rejected;
+}
+
+void BundleAdjustmentRun::Collect(int anchor_id, std::chrono::steady_clock::time_point start) {
+  BundleAdjustmentResult& result = *result_;
+  for (size_t k = 0; k < block_of_.size(); ++k) {
+    if (block_of_[k] == nullptr) result.rejected.push_back(problem_.observations[k]);
+  }
+  result.final_cost = summary_.final_cost;
+  result.num_residuals = ceres_problem_.NumResiduals();
+  result.usable = ceres_problem_.NumResidualBlocks() == 0 || summary_.IsSolutionUsable();
+  result.termination = std::string(ceres::TerminationTypeToString(summary_.termination_type)) +
+                       ": " + summary_.message;
+  for (const auto& [frame_id, offset] : params_.pose_offsets()) {
+    result.T_w_c[frame_id] = params_.Pose(frame_id);
+    result.poses[frame_id] = IsometryToPose(result.T_w_c[frame_id]);
+  }
+  // The anchor comes back as given, not through a quaternion round trip.
+  result.T_w_c[anchor_id] = problem_.T_w_c.at(anchor_id);
+  result.poses[anchor_id] = IsometryToPose(problem_.T_w_c.at(anchor_id));
+  for (const auto& [feature_id, offset] : params_.feature_offsets()) {
+    result.p_w[feature_id] = params_.Feature(feature_id);
+  }
+  result.solve_time_s = SecondsSince(start);
+  // A diagnostic after the solve, not part of its time.
+  result.residual_check = CheckResiduals(problem_, camera_, options_.min_depth_m, result);
+  const int free_parameters =
+      6 * static_cast<int>(frame_uses_.size() - frame_uses_.count(anchor_id)) +
+      3 * static_cast<int>(feature_uses_.size());
+  if (result.num_residuals > 0) {
+    result.residual_check.redundancy =
+        static_cast<double>(result.num_residuals - free_parameters) / result.num_residuals;
+  }
+  std::set<int> observed_frames;
+  for (const auto& [frame_id, uses] : frame_uses_) observed_frames.insert(frame_id);
+  if (options_.compute_covariances && result.usable && !observed_frames.empty()) {
+    const auto covariance_start = std::chrono::steady_clock::now();
+    ComputePoseCovariances(&ceres_problem_, &params_, anchor_id, observed_frames, options_,
+                           &result);
+    result.covariance_time_s = SecondsSince(covariance_start);
+  }
+}
+
 }  // namespace
 
 double RobustSigma(std::vector<double> magnitudes) {
@@ -347,221 +617,16 @@ BundleAdjustmentResult SolveBundleAdjustment(const BundleAdjustmentProblem& prob
     throw DataError("bundle adjustment: the anchor frame " + std::to_string(anchor_id) +
                     " is not among the poses");
   }
-
-  Parameters params(problem);
-  // One loss for every residual, owned here rather than by the problem.
-  std::unique_ptr<ceres::LossFunction> loss;
-  if (options.robust_loss == BaRobustLoss::kHuber) {
-    loss = std::make_unique<ceres::HuberLoss>(options.huber_scale);
-  }
-  ceres::Problem::Options problem_options;
-  problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
-  problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
-  problem_options.enable_fast_removal = true;  // rejected observations leave one by one
-  ceres::EigenQuaternionManifold quaternion_manifold;
-  ceres::Problem ceres_problem(problem_options);
-
-  // Residual blocks per observation (index into problem.observations) and per parameter
-  // block, so that a rejected observation's blocks can leave the problem with it.
-  std::vector<ceres::ResidualBlockId> block_of(problem.observations.size(), nullptr);
-  std::map<int, int> frame_uses;
-  std::map<int64_t, int> feature_uses;
-  for (size_t k = 0; k < problem.observations.size(); ++k) {
-    const BundleAdjustmentObservation& obs = problem.observations[k];
-    const FeatureObservation& o = obs.observation;
-    if (!params.HasPose(obs.frame_id)) throw DataError(ObservationName(obs) + ": unknown frame");
-    if (!params.HasFeature(o.feature_id)) {
-      throw DataError(ObservationName(obs) + ": unknown feature");
-    }
-    Eigen::Matrix3d W;
-    if (!o.z.allFinite() || !SqrtInformation(o.Q, &W)) {
-      throw DataError(ObservationName(obs) +
-                      ": z is not finite or Q is not symmetric positive definite");
-    }
-    const Eigen::Vector3d p_c =
-        problem.T_w_c.at(obs.frame_id).inverse() * problem.p_w.at(o.feature_id);
-    if (!(p_c.z() > options.min_depth_m)) {
-      throw DataError(ObservationName(obs) + ": the point is behind the camera (z = " +
-                      std::to_string(p_c.z()) + " m) at the initial estimate");
-    }
-    double* q = params.q_w_c(obs.frame_id);
-    block_of[k] = ceres_problem.AddResidualBlock(
-        UvdResidual::Create(camera, o.z, W, options.min_depth_m), loss.get(), q,
-        params.t_w_c(obs.frame_id), params.p_w(o.feature_id));
-    if (frame_uses[obs.frame_id]++ == 0) ceres_problem.SetManifold(q, &quaternion_manifold);
-    ++feature_uses[o.feature_id];
-  }
-  std::vector<ceres::ResidualBlockId> relative_block;
-  for (const RelativePoseConstraint& c : problem.relative_poses) {
-    const std::string name = "bundle adjustment: relative pose of frames " +
-                             std::to_string(c.frame_i) + " and " + std::to_string(c.frame_j);
-    if (!params.HasPose(c.frame_i) || !params.HasPose(c.frame_j) || c.frame_i == c.frame_j) {
-      throw DataError(name + ": unknown or repeated frame");
-    }
-    if (!c.sqrt_information.allFinite() || !c.T_sj_si.matrix().allFinite() ||
-        !c.T_c_s.matrix().allFinite()) {
-      throw DataError(name + ": not finite");
-    }
-    relative_block.push_back(ceres_problem.AddResidualBlock(
-        RelativePoseResidual::Create(c.T_sj_si, c.T_c_s, c.sqrt_information), nullptr,
-        params.q_w_c(c.frame_i), params.t_w_c(c.frame_i), params.q_w_c(c.frame_j),
-        params.t_w_c(c.frame_j)));
-    for (const int frame_id : {c.frame_i, c.frame_j}) {
-      if (frame_uses[frame_id]++ == 0) {
-        ceres_problem.SetManifold(params.q_w_c(frame_id), &quaternion_manifold);
-      }
-    }
-  }
-  if (frame_uses.count(anchor_id) > 0) {
-    ceres_problem.SetParameterBlockConstant(params.q_w_c(anchor_id));
-    ceres_problem.SetParameterBlockConstant(params.t_w_c(anchor_id));
-  }
-
-  ceres::Solver::Options solver_options;
-  solver_options.minimizer_type = ceres::TRUST_REGION;
-  solver_options.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
-  solver_options.linear_solver_type = ToCeres(options.linear_solver);
-  solver_options.sparse_linear_algebra_library_type = ceres::SUITE_SPARSE;
-  solver_options.max_num_iterations = options.max_iterations;
-  solver_options.function_tolerance = options.function_tolerance;
-  solver_options.gradient_tolerance = options.gradient_tolerance;
-  solver_options.parameter_tolerance = options.parameter_tolerance;
-  solver_options.num_threads = options.num_threads;
-  solver_options.logging_type = ceres::SILENT;
-  solver_options.minimizer_progress_to_stdout = false;
-
-  // Solves from the current values; again after each round of rejections.
-  ceres::Solver::Summary summary;
-  bool first_solve = true;
-  const auto solve = [&]() {
-    if (ceres_problem.NumResidualBlocks() == 0) {
-      summary = ceres::Solver::Summary();
-      return;
-    }
-    if (options.linear_solver == BaLinearSolver::kSparseSchur) {
-      // Features first: eliminating them leaves the reduced camera system of the poses.
-      auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
-      for (const auto& [feature_id, uses] : feature_uses) {
-        ordering->AddElementToGroup(params.p_w(feature_id), 0);
-      }
-      for (const auto& [frame_id, uses] : frame_uses) {
-        ordering->AddElementToGroup(params.q_w_c(frame_id), 1);
-        ordering->AddElementToGroup(params.t_w_c(frame_id), 1);
-      }
-      solver_options.linear_solver_ordering = ordering;
-    }
-    ceres::Solve(solver_options, &ceres_problem, &summary);
-    if (first_solve) result.initial_cost = summary.initial_cost;
-    first_solve = false;
-    result.iterations += static_cast<int>(summary.iterations.size());
-  };
-  solve();
-  // The squared whitened norm of each block still in the problem (infinite where it cannot
-  // be evaluated), and the gate: `gate` widened by the kept norms' variance factor, median /
-  // chi-square median, robust to the outliers themselves. Where Q understates the noise
-  // (real data: calibration, unmodelled distortion) the gate widens; it never narrows (a Q
-  // that overstates the noise keeps it).
-  const auto norms_and_gate = [&](const std::vector<ceres::ResidualBlockId>& blocks, double median,
-                                  double gate, std::vector<double>* norms,
-                                  double* variance_factor) {
-    norms->assign(blocks.size(), 0.0);
-    std::vector<double> kept;
-    for (size_t k = 0; k < blocks.size(); ++k) {
-      if (blocks[k] == nullptr) continue;
-      double half_squared_norm = 0.0;
-      const bool evaluated = ceres_problem.EvaluateResidualBlock(
-          blocks[k], /*apply_loss_function=*/false, &half_squared_norm, nullptr, nullptr);
-      (*norms)[k] = evaluated ? 2.0 * half_squared_norm : std::numeric_limits<double>::infinity();
-      kept.push_back((*norms)[k]);
-    }
-    if (kept.empty()) return std::numeric_limits<double>::infinity();
-    const auto middle = kept.begin() + kept.size() / 2;
-    std::nth_element(kept.begin(), middle, kept.end());
-    *variance_factor = std::max(1.0, *middle / median);
-    return gate * *variance_factor;
-  };
-  const auto release_frame = [&](int frame_id) {
-    // A block no residual uses any more leaves too: Ceres' ordering and covariance would
-    // meet a parameter the problem does not determine.
-    if (--frame_uses[frame_id] == 0) {
-      frame_uses.erase(frame_id);
-      ceres_problem.RemoveParameterBlock(params.q_w_c(frame_id));
-      ceres_problem.RemoveParameterBlock(params.t_w_c(frame_id));
-    }
-  };
-  for (int round = 0; options.rejection_chi2 > 0.0 && round < options.max_rejection_rounds &&
-                      summary.IsSolutionUsable();
+  BundleAdjustmentRun run(problem, camera, options, &result);
+  run.Build(anchor_id);
+  run.Solve();
+  for (int round = 0;
+       options.rejection_chi2 > 0.0 && round < options.max_rejection_rounds && run.usable();
        ++round) {
-    std::vector<double> squared_norm, relative_norm;
-    const double gate = norms_and_gate(block_of, kChiSquare3Median, options.rejection_chi2,
-                                       &squared_norm, &result.rejection_variance_factor);
-    // Relative poses on the same scale: a wrong alignment disagrees with the others.
-    double relative_factor = 1.0;
-    const double relative_gate =
-        norms_and_gate(relative_block, kChiSquare6Median, SixDofGate(options.rejection_chi2),
-                       &relative_norm, &relative_factor);
-    bool rejected = false;
-    for (size_t k = 0; k < block_of.size(); ++k) {
-      if (block_of[k] == nullptr || !(squared_norm[k] > gate)) continue;
-      const BundleAdjustmentObservation& obs = problem.observations[k];
-      ceres_problem.RemoveResidualBlock(block_of[k]);
-      block_of[k] = nullptr;
-      rejected = true;
-      release_frame(obs.frame_id);
-      if (--feature_uses[obs.observation.feature_id] == 0) {
-        feature_uses.erase(obs.observation.feature_id);
-        ceres_problem.RemoveParameterBlock(params.p_w(obs.observation.feature_id));
-      }
-    }
-    for (size_t k = 0; k < relative_block.size(); ++k) {
-      if (relative_block[k] == nullptr || !(relative_norm[k] > relative_gate)) continue;
-      ceres_problem.RemoveResidualBlock(relative_block[k]);
-      relative_block[k] = nullptr;
-      rejected = true;
-      ++result.rejected_relative_poses;
-      release_frame(problem.relative_poses[k].frame_i);
-      release_frame(problem.relative_poses[k].frame_j);
-    }
-    if (!rejected) break;
-    solve();
+    if (!run.RejectOutliers()) break;
+    run.Solve();
   }
-  for (size_t k = 0; k < block_of.size(); ++k) {
-    if (block_of[k] == nullptr) result.rejected.push_back(problem.observations[k]);
-  }
-  result.final_cost = summary.final_cost;
-  result.num_residuals = ceres_problem.NumResiduals();
-  result.usable = ceres_problem.NumResidualBlocks() == 0 || summary.IsSolutionUsable();
-  result.termination = std::string(ceres::TerminationTypeToString(summary.termination_type)) +
-                       ": " + summary.message;
-
-  for (const auto& [frame_id, offset] : params.pose_offsets()) {
-    result.T_w_c[frame_id] = params.Pose(frame_id);
-    result.poses[frame_id] = IsometryToPose(result.T_w_c[frame_id]);
-  }
-  // The anchor comes back as given, not through a quaternion round trip.
-  result.T_w_c[anchor_id] = problem.T_w_c.at(anchor_id);
-  result.poses[anchor_id] = IsometryToPose(problem.T_w_c.at(anchor_id));
-  for (const auto& [feature_id, offset] : params.feature_offsets()) {
-    result.p_w[feature_id] = params.Feature(feature_id);
-  }
-  result.solve_time_s = SecondsSince(start);
-  // A diagnostic after the solve, not part of its time.
-  result.residual_check = CheckResiduals(problem, camera, options.min_depth_m, result);
-  const int free_parameters =
-      6 * static_cast<int>(frame_uses.size() - frame_uses.count(anchor_id)) +
-      3 * static_cast<int>(feature_uses.size());
-  if (result.num_residuals > 0) {
-    result.residual_check.redundancy =
-        static_cast<double>(result.num_residuals - free_parameters) / result.num_residuals;
-  }
-
-  std::set<int> observed_frames;
-  for (const auto& [frame_id, uses] : frame_uses) observed_frames.insert(frame_id);
-  if (options.compute_covariances && result.usable && !observed_frames.empty()) {
-    const auto covariance_start = std::chrono::steady_clock::now();
-    ComputePoseCovariances(&ceres_problem, &params, anchor_id, observed_frames, options, &result);
-    result.covariance_time_s = SecondsSince(covariance_start);
-  }
+  run.Collect(anchor_id, start);
   return result;
 }
 

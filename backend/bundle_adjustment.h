@@ -1,5 +1,5 @@
-// A Ceres bundle adjustment over the selected poses and 3-D features (METHOD.md §6): the
-// smoothing reference that the filter is checked against, and a batch refinement.
+// A Ceres bundle adjustment over the selected poses and 3-D features: the smoothing
+// reference that the filter is checked against, and a batch refinement.
 //
 // It minimises 1/2 sum_k |W_k (h(T_w_c, p_w) - z_k)|^2 with the filter's own (u, v, d) model
 // and the filter's own Q_k (W_k^T W_k = Q_k^-1; backend/ba_residuals.h), so that with the
@@ -51,10 +51,9 @@ struct BundleAdjustmentOptions {
   // a true observation fails it once in a thousand. When the median squared residual says
   // Q understates the noise, the gate widens by that factor (never narrows). The front
   // end's 3-D RANSAC threshold is sized for the range noise and isotropic, so it lets
-  // through wrong associations off by several centimetres across the ray (tens of pixels):
-  // on the synthetic pair scene 0.8 % of the observations, carrying half of the cost at
-  // ground truth, and the least-squares optimum follows them. 0: keep every observation
-  // (the filter's exact problem).
+  // through wrong associations off by several centimetres across the ray (tens of pixels),
+  // few but carrying much of the cost, and the least-squares optimum follows them
+  // (docs/filter_internals.md). 0: keep every observation (the filter's exact problem).
   double rejection_chi2 = 16.27;
   int max_rejection_rounds = 5;
   // Features are eliminated first (the Schur complement leaves the small pose system);

@@ -126,6 +126,42 @@ Eigen::Isometry3d SensorPose(const Eigen::Isometry3d& T_w_c, const RangeCloud& c
   return T_w_c * cloud.T_colour_range;
 }
 
+// Which of `all_pairs` (frame indices a < b) to align: each frame keeps at most
+// max_partners of its overlapping partners, spread over the sequence. Its partners in frame
+// order are cut into max_partners runs of equal length and the most overlapping one of each
+// run is kept; a pair is aligned when either of its frames keeps it. That bounds the work and
+// the bundle adjustment's terms to max_partners per frame however long the sequence.
+// Keeping the most overlapping ones instead would keep the nearest frames only; the far
+// ones, which see the same surfaces after a loop, are the ones that remove drift.
+std::vector<char> SpreadPartners(const std::vector<std::pair<size_t, size_t>>& all_pairs,
+                                 const std::vector<double>& overlap, size_t num_frames,
+                                 const DepthAlignmentOptions& options) {
+  std::vector<std::vector<size_t>> partners(num_frames);  // pair indices, in frame order
+  for (size_t k = 0; k < all_pairs.size(); ++k) {
+    if (overlap[k] < options.min_overlap) continue;
+    partners[all_pairs[k].first].push_back(k);
+    partners[all_pairs[k].second].push_back(k);
+  }
+  std::vector<char> keep(all_pairs.size(), 0);
+  for (size_t a = 0; a < num_frames; ++a) {
+    std::vector<size_t>& list = partners[a];
+    const auto other = [&](size_t k) {
+      return all_pairs[k].first == a ? all_pairs[k].second : all_pairs[k].first;
+    };
+    std::sort(list.begin(), list.end(), [&](size_t x, size_t y) { return other(x) < other(y); });
+    const size_t runs = std::min(list.size(), static_cast<size_t>(options.max_partners));
+    for (size_t run = 0; run < runs; ++run) {
+      const size_t begin = run * list.size() / runs, end = (run + 1) * list.size() / runs;
+      size_t best = list[begin];
+      for (size_t m = begin + 1; m < end; ++m) {
+        if (overlap[list[m]] > overlap[best]) best = list[m];
+      }
+      keep[best] = 1;
+    }
+  }
+  return keep;
+}
+
 }  // namespace
 
 const OptionTable<DepthAlignmentOptions>& DepthAlignmentOptions::Table() {
@@ -261,37 +297,7 @@ std::vector<RelativePoseConstraint> AlignCloudPairs(const std::map<int, RangeClo
                   T_w_s[b].inverse() * T_w_s[a], options.initial_gate_m, options);
     overlap[k] = static_cast<double>(eq.count) / coarse_samples[a].size();
   });
-  // Each frame keeps at most max_partners partners, spread over the sequence: its
-  // overlapping partners in frame order are cut into max_partners runs of equal length and
-  // the most overlapping one of each run is kept; a pair is aligned when either of its frames
-  // keeps it. That bounds the work and the bundle adjustment's terms to max_partners per
-  // frame however long the sequence. Keeping the most overlapping ones instead would keep
-  // the nearest frames only; the far ones, which see the same surfaces after a loop, are
-  // the ones that remove drift (7scenes-dev, 43 keyframes: 2.75 cm with the 10 most
-  // overlapping, 2.40 cm with all ~23 per frame).
-  std::vector<std::vector<size_t>> partners(frames.size());  // pair indices, in frame order
-  for (size_t k = 0; k < all_pairs.size(); ++k) {
-    if (overlap[k] < options.min_overlap) continue;
-    partners[all_pairs[k].first].push_back(k);
-    partners[all_pairs[k].second].push_back(k);
-  }
-  std::vector<char> keep(all_pairs.size(), 0);
-  for (size_t a = 0; a < frames.size(); ++a) {
-    std::vector<size_t>& list = partners[a];
-    const auto other = [&](size_t k) {
-      return all_pairs[k].first == a ? all_pairs[k].second : all_pairs[k].first;
-    };
-    std::sort(list.begin(), list.end(), [&](size_t x, size_t y) { return other(x) < other(y); });
-    const size_t runs = std::min(list.size(), static_cast<size_t>(options.max_partners));
-    for (size_t run = 0; run < runs; ++run) {
-      const size_t begin = run * list.size() / runs, end = (run + 1) * list.size() / runs;
-      size_t best = list[begin];
-      for (size_t m = begin + 1; m < end; ++m) {
-        if (overlap[list[m]] > overlap[best]) best = list[m];
-      }
-      keep[best] = 1;
-    }
-  }
+  const std::vector<char> keep = SpreadPartners(all_pairs, overlap, frames.size(), options);
   std::vector<std::pair<int, int>> pairs;
   std::vector<Eigen::Isometry3d> T_j_i;
   for (size_t k = 0; k < all_pairs.size(); ++k) {

@@ -12,6 +12,9 @@
 #include <glog/logging.h>
 #include <Eigen/Cholesky>
 
+#include "backend/dense_then_sparse_factor.h"
+#include "backend/pose_schur_information_factor.h"
+#include "backend/sparse_information_factor.h"
 #include "core/error.h"
 #include "core/stopwatch.h"
 
@@ -21,6 +24,95 @@ namespace {
 
 std::string FrameName(int frame_id) {
   return frame_id < 0 ? std::string("candidate frame") : "frame " + std::to_string(frame_id);
+}
+
+// The factorisations' options, from the filter's.
+SparseCholeskyOptions SparseFactorOptions(const InformationFilterOptions& options) {
+  return {options.ordering, options.spare_capacity};
+}
+
+PoseSchurOptions DenseFactorOptions(const InformationFilterOptions& options) {
+  // The window's and the float renewal's settings are the dense factor's own.
+  const PoseSchurOptions own;
+  return {own.prefetch,           own.evict_after,
+          options.cg_tolerance,   options.cg_max_iterations,
+          options.cg_flop_weight, own.single_speedup};
+}
+
+const InformationFilterOptions& Checked(const InformationFilterOptions& options) {
+  std::string why;
+  if (!options.Check(&why)) throw ConfigError("InformationFilterOptions: " + why);
+  return options;
+}
+
+// What ValidateObservations throws for, or empty.
+std::string ObservationsProblem(int frame_id, const std::vector<FeatureObservation>& observations) {
+  std::unordered_set<int64_t> seen;
+  for (const FeatureObservation& obs : observations) {
+    if (!seen.insert(obs.feature_id).second) {
+      return FrameName(frame_id) + " observes feature " + std::to_string(obs.feature_id) + " twice";
+    }
+    if (!obs.z.allFinite() || !(obs.z.z() > 0.0)) {
+      std::ostringstream msg;
+      msg << FrameName(frame_id) << ": observation of feature " << obs.feature_id
+          << " is not finite or has range <= 0: z = " << obs.z.transpose();
+      return msg.str();
+    }
+    if (!obs.Q.allFinite() || Eigen::LLT<Eigen::Matrix3d>(obs.Q).info() != Eigen::Success) {
+      std::ostringstream msg;
+      msg << FrameName(frame_id) << ": noise covariance Q of feature " << obs.feature_id
+          << " is not positive definite:\n"
+          << obs.Q;
+      return msg.str();
+    }
+  }
+  return std::string();
+}
+
+// log det of a symmetric positive definite matrix, or -infinity if it is not one.
+double LogDetSpd(const Eigen::MatrixXd& M) {
+  const Eigen::LLT<Eigen::MatrixXd> llt(M);
+  if (llt.info() != Eigen::Success) return -std::numeric_limits<double>::infinity();
+  const Eigen::VectorXd diagonal = llt.matrixLLT().diagonal();
+  if (!(diagonal.minCoeff() > 0.0)) return -std::numeric_limits<double>::infinity();
+  return 2.0 * diagonal.array().log().sum();
+}
+
+// The gain's map term log det(I + P (A - B C^-1 B^T)), from the known features' Cholesky
+// factors G (A = G G^T block by block), `bordered`'s last 6 rows holding Bt^T = (G^-1 B)^T,
+// and P from `known` at the blocks `in_known`; -infinity if it is not finite.
+//
+// Without n x n products: with A = G G^T and Bt = G^-1 B, the matrix determinant lemma and
+// Woodbury's identity give
+//   det(I + P M) = det K * det(C - N) / det C,   K = I + G^T P G,
+//   N = B^T (P^-1 + A)^-1 B = Bt^T (I - K^-1) Bt,
+// and as each J_f is square and invertible ((u, v, d) of a 3-D point: 3x3; A_s's Cholesky
+// checks it), C = Bt^T Bt, so C - N = Bt^T K^-1 Bt = Y^T Y with Y = L_K^-1 Bt. One Cholesky
+// of the bordered matrix [K, Bt; Bt^T, 2C] gives both: its factor is [L_K, 0; Y^T, L_2],
+// and 2C - Y^T Y >= C > 0 keeps it positive definite. K is formed block by block from P,
+// lower half only (all LLT reads; the strict upper part of `bordered` is never written, so
+// only its lower factor may be used), factored in place.
+double MapTerm(const std::vector<Eigen::Matrix3d>& G, const std::vector<int>& in_known,
+               const FeatureCovariance& known, const Matrix6d& C, double log_det_C,
+               Eigen::MatrixXd* bordered_matrix) {
+  Eigen::MatrixXd& bordered = *bordered_matrix;
+  const int num_known = static_cast<int>(G.size()), n = 3 * num_known;
+  for (int s = 0; s < num_known; ++s) {
+    for (int r = s; r < num_known; ++r) {
+      bordered.block<3, 3>(3 * r, 3 * s).noalias() =
+          G[r].transpose() * known.covariance.block<3, 3>(3 * in_known[r], 3 * in_known[s]) * G[s];
+    }
+  }
+  bordered.diagonal().head(n).array() += 1.0;
+  bordered.bottomRightCorner<6, 6>() = 2.0 * C;
+  const Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>> llt(bordered);
+  if (llt.info() != Eigen::Success) return -std::numeric_limits<double>::infinity();
+  const double log_det_K = 2.0 * bordered.diagonal().head(n).array().log().sum();
+  const auto Y_transpose = bordered.bottomLeftCorner(6, n);
+  const Matrix6d C_minus_N = Y_transpose * Y_transpose.transpose();
+  const double map_term = log_det_K + LogDetSpd(C_minus_N) - log_det_C;
+  if (!std::isfinite(map_term)) return -std::numeric_limits<double>::infinity();
+  return map_term;
 }
 
 }  // namespace
@@ -99,26 +191,8 @@ const OptionTable<InformationFilterOptions>& InformationFilterOptions::Table() {
 }
 
 void ValidateObservations(int frame_id, const std::vector<FeatureObservation>& observations) {
-  std::unordered_set<int64_t> seen;
-  for (const FeatureObservation& obs : observations) {
-    if (!seen.insert(obs.feature_id).second) {
-      throw DataError(FrameName(frame_id) + " observes feature " + std::to_string(obs.feature_id) +
-                      " twice");
-    }
-    if (!obs.z.allFinite() || !(obs.z.z() > 0.0)) {
-      std::ostringstream msg;
-      msg << FrameName(frame_id) << ": observation of feature " << obs.feature_id
-          << " is not finite or has range <= 0: z = " << obs.z.transpose();
-      throw DataError(msg.str());
-    }
-    if (!obs.Q.allFinite() || Eigen::LLT<Eigen::Matrix3d>(obs.Q).info() != Eigen::Success) {
-      std::ostringstream msg;
-      msg << FrameName(frame_id) << ": noise covariance Q of feature " << obs.feature_id
-          << " is not positive definite:\n"
-          << obs.Q;
-      throw DataError(msg.str());
-    }
-  }
+  const std::string problem = ObservationsProblem(frame_id, observations);
+  if (!problem.empty()) throw DataError(problem);
 }
 
 // One observation's contribution H^T Q^-1 H and H^T Q^-1 (z - h + H X), split into the
@@ -140,22 +214,44 @@ struct InformationFilter::Linearization {
   int num_new = 0;
 };
 
+// The observation model h(T_w_c, p_w) (eqs. 4-8) linearised at one point.
+struct InformationFilter::ObservationJacobians {
+  Eigen::Vector3d p_w = Eigen::Vector3d::Zero();  // the feature's linearisation point
+  double depth = 0.0;                             // of p_w in the camera
+  Eigen::Vector3d h = Eigen::Vector3d::Zero();    // the predicted observation
+  Matrix36d J_p = Matrix36d::Zero();
+  Eigen::Matrix3d J_f = Eigen::Matrix3d::Zero();
+};
+
+// What an update overwrites, to take it back when the factor refuses it.
+struct InformationFilter::Undo {
+  int old_dim = 0;
+  std::vector<std::pair<int, Eigen::MatrixXd>> saved_blocks;  // re-observed features' blocks
+  Eigen::VectorXd saved_info_vector;
+};
+
 InformationFilter::InformationFilter(const InformationFilterOptions& options,
                                      const PinholeCamera& camera)
-    : options_(options), camera_(camera), cholesky_() {
-  std::string why;
-  if (!options_.Check(&why)) throw ConfigError("InformationFilterOptions: " + why);
-  cholesky_ = std::make_unique<SparseCholesky>(options_.ordering, options_.spare_capacity);
-  if (options_.max_dense_pose_dim >= 6) {
-    PoseSchurOptions schur_options;
-    schur_options.cg_tolerance = options_.cg_tolerance;
-    schur_options.cg_max_iterations = options_.cg_max_iterations;
-    schur_options.cg_flop_weight = options_.cg_flop_weight;
-    schur_ = std::make_unique<PoseSchurFactor>(schur_options);
-  }
+    : options_(Checked(options)), camera_(camera) {
+  const PoseSchurOptions dense = DenseFactorOptions(options_);
+  const SparseCholeskyOptions sparse = SparseFactorOptions(options_);
+  factor_ = std::make_unique<DenseThenSparseFactor>(
+      options_.max_dense_pose_dim, [dense]() { return MakePoseSchurInformationFactor(dense); },
+      [sparse]() { return MakeSparseInformationFactor(sparse); });
 }
 
 InformationFilter::~InformationFilter() = default;
+
+bool InformationFilter::LinearizeObservation(const Vector6d& T_w_c, const FeatureObservation& obs,
+                                             bool is_new, ObservationJacobians* jacobians) const {
+  jacobians->p_w =
+      is_new ? ObservationToWorld(T_w_c, obs.z, camera_) : FeatureEstimate(obs.feature_id);
+  jacobians->depth = WorldToCamera(T_w_c, jacobians->p_w).z();
+  if (!(jacobians->depth > options_.min_depth_m)) return false;
+  jacobians->h =
+      PredictObservation(T_w_c, jacobians->p_w, camera_, &jacobians->J_p, &jacobians->J_f);
+  return true;
+}
 
 InformationFilter::Linearization InformationFilter::Linearize(
     int frame_id, const Vector6d& T_w_c, const std::vector<FeatureObservation>& observations,
@@ -169,18 +265,18 @@ InformationFilter::Linearization InformationFilter::Linearize(
     block.feature_id = obs.feature_id;
     block.is_new = !HasFeature(obs.feature_id);
     if (block.is_new && static_cast<int>(new_blocks.size()) >= max_new_features) continue;
-    block.p_w =
-        block.is_new ? ObservationToWorld(T_w_c, obs.z, camera_) : FeatureEstimate(obs.feature_id);
-    const double depth = WorldToCamera(T_w_c, block.p_w).z();
-    if (!(depth > options_.min_depth_m)) {
+    ObservationJacobians jacobians;
+    if (!LinearizeObservation(T_w_c, obs, block.is_new, &jacobians)) {
       std::ostringstream msg;
-      msg << FrameName(frame_id) << ": feature " << obs.feature_id << " lies at depth " << depth
+      msg << FrameName(frame_id) << ": feature " << obs.feature_id << " lies at depth "
+          << jacobians.depth
           << " m in the camera at its estimated pose; cannot linearise its observation";
       throw DataError(msg.str());
     }
-    Matrix36d J_p;
-    Eigen::Matrix3d J_f;
-    const Eigen::Vector3d h = PredictObservation(T_w_c, block.p_w, camera_, &J_p, &J_f);
+    block.p_w = jacobians.p_w;
+    const Matrix36d& J_p = jacobians.J_p;
+    const Eigen::Matrix3d& J_f = jacobians.J_f;
+    const Eigen::Vector3d& h = jacobians.h;
     const Eigen::Matrix3d W = obs.Q.inverse();
     const Eigen::Matrix<double, 6, 3> JpT_W = J_p.transpose() * W;
     const Eigen::Matrix3d JfT_W = J_f.transpose() * W;
@@ -264,72 +360,15 @@ void InformationFilter::Update(int frame_id, const Vector6d& T_w_c,
                     " features already in the map; a new pose needs at least " +
                     std::to_string(options_.min_known_features));
   }
-
-  // Keep what the update overwrites, so that a failed factorisation leaves no trace.
-  const int old_dim = matrix_.dim();
-  std::vector<std::pair<int, Eigen::MatrixXd>> saved_blocks;
-  for (int b = 0; b < lin.num_known; ++b) {
-    const int offset = feature_offset_.at(lin.blocks[b].feature_id);
-    saved_blocks.emplace_back(offset, matrix_.DiagonalBlock(offset, 3));
-  }
-  const Eigen::VectorXd saved_info_vector = info_vector_;
-
   const double prior = anchor ? options_.anchor_information : 0.0;
-  AppendToMatrix(lin, prior, &matrix_);
-  const int new_dim = matrix_.dim();
-  info_vector_.conservativeResize(new_dim);
-  for (int b = 0; b < static_cast<int>(lin.blocks.size()); ++b) {
-    const Linearization::Block& block = lin.blocks[b];
-    const int offset =
-        block.is_new ? old_dim + 3 * (b - lin.num_known) : feature_offset_.at(block.feature_id);
-    if (block.is_new) info_vector_.segment<3>(offset).setZero();
-    info_vector_.segment<3>(offset) += block.i_f;
-  }
-  info_vector_.tail<6>() = lin.i_p + prior * T_w_c;
+  const Undo undo = AddToInformation(lin, T_w_c, prior);
+  const int old_dim = undo.old_dim, new_dim = matrix_.dim();
+  const InformationUpdate update = FactorUpdate(lin, old_dim, prior);
   timings_.linearize_s = SecondsSince(start);
-
-  // Past the dense limit the sparse factor takes over for good (its first Update refuses
-  // and it factorises the whole matrix).
-  if (schur_ != nullptr && 6 * (num_poses() + 1) > options_.max_dense_pose_dim) schur_.reset();
-  std::vector<DiagonalIncrement> increments;
-  std::vector<SchurObservation> schur_observations;
-  for (int b = 0; b < static_cast<int>(lin.blocks.size()); ++b) {
-    const Linearization::Block& block = lin.blocks[b];
-    const int offset =
-        block.is_new ? old_dim + 3 * (b - lin.num_known) : feature_offset_.at(block.feature_id);
-    if (!block.is_new) increments.push_back({offset, block.I_ff});
-    if (schur_ != nullptr) {
-      schur_observations.push_back({offset, block.is_new, block.I_ff, block.I_pf});
-    }
-  }
-  const auto restore = [&]() {
-    matrix_.Truncate(old_dim);
-    for (const auto& [offset, block] : saved_blocks) matrix_.SetDiagonalBlock(offset, block);
-    info_vector_ = saved_info_vector;
-  };
-  const std::string not_positive_definite =
-      "adding " + FrameName(frame_id) +
-      " makes the information matrix not positive definite (degenerate observations?)";
-  if (schur_ != nullptr) {
-    const Matrix6d I_pp = lin.I_pp + prior * Matrix6d::Identity();
-    const bool lazy = options_.iterative_recovery && !queried_;
-    const SchurUpdate mode = defer_recovery_ ? SchurUpdate::kDefer
-                             : lazy          ? SchurUpdate::kLazy
-                                             : SchurUpdate::kExact;
-    if (!schur_->AddPose(new_dim - 6, I_pp, schur_observations, mode)) {
-      restore();
-      throw DataError(not_positive_definite);
-    }
-  }
   if (defer_recovery_) {
-    // The state grows by the new variables at their initial values; no factorisation
-    // (the factor only notes which variables the update touched, for its next ordering).
-    if (schur_ == nullptr) cholesky_->NoteUpdate(old_dim, increments);
-    state_.conservativeResize(new_dim);
-    for (int b = lin.num_known; b < static_cast<int>(lin.blocks.size()); ++b) {
-      state_.segment<3>(old_dim + 3 * (b - lin.num_known)) = lin.blocks[b].p_w;
-    }
-    state_.tail<6>() = T_w_c;
+    // No factorisation (the factor only notes what the update touched, for its next one).
+    factor_->AddDeferred(matrix_, update);
+    GrowState(lin, old_dim);
     Register(lin, frame_id, old_dim, new_dim);
     recovery_pending_ = true;
     timings_.analyze_s = timings_.factorize_s = timings_.solve_s = 0.0;
@@ -337,56 +376,80 @@ void InformationFilter::Update(int frame_id, const Vector6d& T_w_c,
     timings_.total_s = SecondsSince(start);
     return;
   }
-  timings_.cg_iterations = 0;
-  if (schur_ != nullptr) {
-    timings_.analyze_s = 0.0;
-    timings_.factorize_s = SecondsSince(start) - timings_.linearize_s;
-    const auto solve_start = std::chrono::steady_clock::now();
-    // Eq. 10, I X = i, from the previous estimate (only the poses are read).
-    Eigen::VectorXd guess = state_;
-    guess.conservativeResize(new_dim);
-    guess.tail<6>() = T_w_c;
-    Eigen::VectorXd solution;
-    bool solved = schur_->SolveIteratively(info_vector_, guess, &solution);
-    timings_.cg_iterations = schur_->last_cg_iterations();
-    if (!solved && schur_->MakeExact()) {
-      solution = schur_->Solve(info_vector_);
-      solved = true;
-    }
-    if (solved) {
-      queried_ = false;
-      Register(lin, frame_id, old_dim, new_dim);
-      state_ = std::move(solution);
-      recovery_pending_ = false;
-      timings_.solve_s = SecondsSince(solve_start);
-      timings_.total_s = SecondsSince(start);
-      return;
-    }
-    // S is numerically indefinite although its preconditioner was not: the sparse factor
-    // takes over and decides.
-    schur_.reset();
-  }
-  // In place when the factor has room (the re-observed features' blocks are a low-rank
-  // update, the new variables new rows), else a fresh ordering and factorisation.
-  if (!cholesky_->Update(matrix_, old_dim, increments) &&
-      !cholesky_->Factorize(matrix_, /*pattern_changed=*/true)) {
-    restore();
-    // A failed in-place update leaves no factor; Factorize keeps the old one otherwise.
+  // Eq. 10, I X = i, from the previous estimate (an iterative recovery reads the poses).
+  Eigen::VectorXd guess = state_;
+  guess.conservativeResize(new_dim);
+  guess.tail<6>() = T_w_c;
+  Eigen::VectorXd solution;
+  if (factor_->AddAndSolve(matrix_, update, /*keep_exact=*/!options_.iterative_recovery,
+                           info_vector_, guess, &solution) != FactorStatus::kOk) {
+    TakeBack(undo);
     // (With deferred frames pending there was no factor of the old matrix to restore.)
-    if (!cholesky_->valid() && old_dim > 0 && !recovery_pending_) {
-      CHECK(cholesky_->Factorize(matrix_, true)) << "the old matrix refactors";
-    }
-    throw DataError(not_positive_definite);
+    factor_->Restore(matrix_, /*factored=*/!recovery_pending_);
+    throw DataError("adding " + FrameName(frame_id) +
+                    " makes the information matrix not positive definite (degenerate "
+                    "observations?)");
   }
-  timings_.analyze_s = cholesky_->timings().analyze_s;
-  timings_.factorize_s = cholesky_->timings().factorize_s;
   Register(lin, frame_id, old_dim, new_dim);
-
-  const auto solve_start = std::chrono::steady_clock::now();
-  state_ = cholesky_->Solve(info_vector_);  // eq. 10: I X = i
-  recovery_pending_ = false;                // the deferred frames were factored in too
-  timings_.solve_s = SecondsSince(solve_start);
+  state_ = std::move(solution);
+  recovery_pending_ = false;  // the deferred frames were factored in too
+  const FactorTimings& factor_timings = factor_->timings();
+  timings_.analyze_s = factor_timings.analyze_s;
+  timings_.factorize_s = factor_timings.factorize_s;
+  timings_.solve_s = factor_timings.solve_s;
+  timings_.cg_iterations = factor_timings.cg_iterations;
   timings_.total_s = SecondsSince(start);
+}
+
+InformationFilter::Undo InformationFilter::AddToInformation(const Linearization& lin,
+                                                            const Vector6d& T_w_c,
+                                                            double pose_prior) {
+  Undo undo;
+  undo.old_dim = matrix_.dim();
+  for (int b = 0; b < lin.num_known; ++b) {
+    const int offset = feature_offset_.at(lin.blocks[b].feature_id);
+    undo.saved_blocks.emplace_back(offset, matrix_.DiagonalBlock(offset, 3));
+  }
+  undo.saved_info_vector = info_vector_;
+  AppendToMatrix(lin, pose_prior, &matrix_);
+  info_vector_.conservativeResize(matrix_.dim());
+  for (int b = 0; b < static_cast<int>(lin.blocks.size()); ++b) {
+    const Linearization::Block& block = lin.blocks[b];
+    const int offset = block.is_new ? undo.old_dim + 3 * (b - lin.num_known)
+                                    : feature_offset_.at(block.feature_id);
+    if (block.is_new) info_vector_.segment<3>(offset).setZero();
+    info_vector_.segment<3>(offset) += block.i_f;
+  }
+  info_vector_.tail<6>() = lin.i_p + pose_prior * T_w_c;
+  return undo;
+}
+
+void InformationFilter::TakeBack(const Undo& undo) {
+  matrix_.Truncate(undo.old_dim);
+  for (const auto& [offset, block] : undo.saved_blocks) matrix_.SetDiagonalBlock(offset, block);
+  info_vector_ = undo.saved_info_vector;
+}
+
+InformationUpdate InformationFilter::FactorUpdate(const Linearization& lin, int old_dim,
+                                                  double pose_prior) const {
+  InformationUpdate update;
+  update.old_dim = old_dim;
+  update.pose_block = lin.I_pp + pose_prior * Matrix6d::Identity();
+  for (int b = 0; b < static_cast<int>(lin.blocks.size()); ++b) {
+    const Linearization::Block& block = lin.blocks[b];
+    const int offset =
+        block.is_new ? old_dim + 3 * (b - lin.num_known) : feature_offset_.at(block.feature_id);
+    update.observations.push_back({offset, block.is_new, block.I_ff, block.I_pf});
+  }
+  return update;
+}
+
+void InformationFilter::GrowState(const Linearization& lin, int old_dim) {
+  state_.conservativeResize(matrix_.dim());
+  for (int b = lin.num_known; b < static_cast<int>(lin.blocks.size()); ++b) {
+    state_.segment<3>(old_dim + 3 * (b - lin.num_known)) = lin.blocks[b].p_w;
+  }
+  state_.tail<6>() = lin.T_w_c;
 }
 
 void InformationFilter::Register(const Linearization& lin, int frame_id, int old_dim, int new_dim) {
@@ -401,22 +464,18 @@ void InformationFilter::Register(const Linearization& lin, int frame_id, int old
 void InformationFilter::Recover() {
   if (!recovery_pending_) return;
   const auto start = std::chrono::steady_clock::now();
-  if (schur_ != nullptr ? !schur_->Refactor()
-                        : !cholesky_->Factorize(matrix_, /*pattern_changed=*/true)) {
+  if (!factor_->Refactor(matrix_)) {
     throw DataError("the deferred frames (last: " + FrameName(frame_ids_.back()) +
                     ") make the information matrix not positive definite");
   }
-  timings_.analyze_s = schur_ != nullptr ? 0.0 : cholesky_->timings().analyze_s;
-  timings_.factorize_s = schur_ != nullptr ? SecondsSince(start) : cholesky_->timings().factorize_s;
   const auto solve_start = std::chrono::steady_clock::now();
-  if (schur_ != nullptr) {
-    state_ = schur_->Solve(info_vector_);
-  } else {
-    state_ = cholesky_->Solve(info_vector_);
-  }
+  state_ = factor_->Solve(info_vector_);
   recovery_pending_ = false;
   timings_.linearize_s = 0.0;
+  timings_.analyze_s = factor_->timings().analyze_s;
+  timings_.factorize_s = factor_->timings().factorize_s;
   timings_.solve_s = SecondsSince(solve_start);
+  timings_.cg_iterations = 0;
   timings_.total_s = SecondsSince(start);
 }
 
@@ -426,11 +485,16 @@ void InformationFilter::CheckRecovered() const {
 
 void InformationFilter::EnsureExactFactor() const {
   CheckRecovered();
-  if (schur_ == nullptr) return;
   const std::lock_guard<std::mutex> lock(factor_mutex_);
-  CHECK(schur_->MakeExact()) << "the pose Schur complement is numerically not positive definite";
-  queried_ = true;
+  factor_->MakeExact();
 }
+
+int64_t InformationFilter::FactorNonzeros() const {
+  CheckRecovered();
+  return factor_->FactorNonzeros();
+}
+
+bool InformationFilter::uses_pose_schur() const { return factor_->uses_pose_schur(); }
 
 Vector6d InformationFilter::pose(int frame_id) const {
   CheckRecovered();
@@ -461,7 +525,7 @@ Eigen::SparseMatrix<double> InformationFilter::Information() const { return matr
 
 double InformationFilter::LogDetInformation() const {
   EnsureExactFactor();
-  return schur_ != nullptr ? schur_->LogDet() : cholesky_->LogDet();
+  return factor_->LogDet();
 }
 
 std::vector<int> InformationFilter::ScalarIndices(const std::vector<VariableRef>& variables) const {
@@ -477,13 +541,93 @@ std::vector<int> InformationFilter::ScalarIndices(const std::vector<VariableRef>
 Eigen::MatrixXd InformationFilter::MarginalCovariance(
     const std::vector<VariableRef>& variables) const {
   EnsureExactFactor();
-  const std::vector<int> indices = ScalarIndices(variables);
-  return schur_ != nullptr ? schur_->InverseSubmatrix(indices)
-                           : cholesky_->InverseSubmatrix(indices);
+  return factor_->InverseSubmatrix(ScalarIndices(variables));
 }
 
 Matrix6d InformationFilter::PoseCovariance(int frame_id) const {
   return MarginalCovariance({VariableRef::Pose(frame_id)});
+}
+
+FeatureCovariance InformationFilter::JointFeatureCovariance(
+    const std::vector<int64_t>& feature_ids) const {
+  FeatureCovariance result;
+  std::vector<VariableRef> variables;
+  for (const int64_t id : feature_ids) {
+    if (!HasFeature(id) || result.index.count(id) > 0) continue;
+    result.index[id] = static_cast<int>(result.feature_ids.size());
+    result.feature_ids.push_back(id);
+    variables.push_back(VariableRef::Feature(id));
+  }
+  result.covariance = variables.empty() ? Eigen::MatrixXd(0, 0) : MarginalCovariance(variables);
+  return result;
+}
+
+int InformationFilter::CountNewFeatures(const std::vector<FeatureObservation>& observations) const {
+  int count = 0;
+  for (const FeatureObservation& obs : observations) count += HasFeature(obs.feature_id) ? 0 : 1;
+  return count;
+}
+
+// The exact gain of adding the candidate, without the expanded matrix (§V-A). With S the
+// known features the candidate observes and P_SS their joint covariance,
+//   gain = sum_new log det(J_f^T W J_f) + log det C + log det(I + P_SS (A - B C^-1 B^T)),
+// A = sum J_S^T W J_S, B = sum J_S^T W J_p, C = sum J_p^T W J_p over the known features'
+// observations. A new feature seen once couples to the pose only through a block that
+// cancels when it is marginalised, hence its lone term.
+double InformationFilter::InformationGain(const Vector6d& T_w_c_candidate,
+                                          const std::vector<FeatureObservation>& observations,
+                                          int num_new_features_to_count,
+                                          const FeatureCovariance& known, GainTerms* terms) const {
+  constexpr double kMinusInfinity = -std::numeric_limits<double>::infinity();
+  CheckRecovered();
+  if (!ObservationsProblem(-1, observations).empty()) return kMinusInfinity;
+  const int num_known = static_cast<int>(observations.size()) - CountNewFeatures(observations);
+  // Per known feature s: G_s with A_s = J_f^T W J_f = G_s G_s^T, and Bt_s = G_s^-1 B_s,
+  // stored transposed in the last 6 rows of the bordered matrix MapTerm factors.
+  const int n = 3 * num_known;
+  std::vector<Eigen::Matrix3d> G;
+  G.reserve(num_known);
+  Eigen::MatrixXd bordered(n + 6, n + 6);
+  Matrix6d C = Matrix6d::Zero();
+  std::vector<int> in_known;  // block of each of S in known.covariance
+  double new_features_term = 0.0;
+  int num_counted = 0;
+  for (const FeatureObservation& obs : observations) {
+    const bool is_new = !HasFeature(obs.feature_id);
+    if (is_new && num_new_features_to_count >= 0 && num_counted >= num_new_features_to_count) {
+      continue;
+    }
+    ObservationJacobians jacobians;
+    if (!LinearizeObservation(T_w_c_candidate, obs, is_new, &jacobians)) return kMinusInfinity;
+    const Matrix36d& J_p = jacobians.J_p;
+    const Eigen::Matrix3d& J_f = jacobians.J_f;
+    const Eigen::Matrix3d W = obs.Q.inverse();
+    if (is_new) {
+      new_features_term += LogDetSpd(J_f.transpose() * W * J_f);
+      ++num_counted;
+      continue;
+    }
+    const auto it = known.index.find(obs.feature_id);
+    CHECK(it != known.index.end())
+        << "feature " << obs.feature_id << " is missing from the FeatureCovariance";
+    const int s = static_cast<int>(in_known.size());
+    in_known.push_back(it->second);
+    const Eigen::LLT<Eigen::Matrix3d> A_s(J_f.transpose() * W * J_f);
+    CHECK(A_s.info() == Eigen::Success) << "a known feature's information is not positive definite";
+    G.push_back(A_s.matrixL());
+    bordered.block<6, 3>(n, 3 * s) = A_s.matrixL().solve(J_f.transpose() * W * J_p).transpose();
+    C += J_p.transpose() * W * J_p;
+  }
+  CHECK(num_new_features_to_count < 0 || num_counted == num_new_features_to_count)
+      << "the candidate has " << num_counted << " new features, asked to count "
+      << num_new_features_to_count;
+
+  const double log_det_C = LogDetSpd(C);
+  if (!std::isfinite(log_det_C)) return kMinusInfinity;
+  const double map_term = MapTerm(G, in_known, known, C, log_det_C, &bordered);
+  if (!std::isfinite(map_term)) return kMinusInfinity;
+  if (terms != nullptr) *terms = {new_features_term, log_det_C, map_term};
+  return new_features_term + log_det_C + map_term;
 }
 
 double InformationFilter::LogDetExpandedInformation(
@@ -496,7 +640,7 @@ double InformationFilter::LogDetExpandedInformation(
       << num_new_features_to_count;
   UpperColumnStorage expanded = matrix_;
   AppendToMatrix(lin, 0.0, &expanded);
-  SparseCholesky cholesky(options_.ordering);
+  SparseCholesky cholesky({options_.ordering});  // no spare slots: one factorisation
   if (!cholesky.Factorize(expanded, true)) return -std::numeric_limits<double>::infinity();
   return cholesky.LogDet();
 }

@@ -4,15 +4,15 @@
 // every 3-D feature, in the global frame. There is no motion model and no prediction step:
 // a pose enters with its observations (eq. 9, linearised once at the current estimate) and
 // the state is recovered by solving I X = i (eq. 10). The information matrix therefore stays
-// sparse — a pose couples only with the features it observes — and is factored either
-// through its pose Schur complement (features eliminated block by block, the poses' system
-// dense: backend/pose_schur_factor.h) while there are few poses, or with a sparse Cholesky
-// (CHOLMOD); log det I and marginal covariances come from the factor without ever
-// inverting I.
+// sparse — a pose couples only with the features it observes — and is factored through its
+// dense pose Schur complement while there are few poses, then by a sparse Cholesky factor
+// (backend/dense_then_sparse_factor.h; docs/filter_internals.md); log det I and marginal
+// covariances come from the factor without ever inverting I.
 //
 // The filter also scores candidate frames for the information-efficient selection (§V-A):
-// the exact gain log det I(k+1) - log det I(k) of METHOD.md §4, in O(|S|^3) per candidate
-// once the joint covariance of the features the candidates observe has been recovered.
+// the exact gain log det I(k+1) - log det I(k) of adding a candidate, without the expanded
+// matrix, in O(|S|^3) per candidate once the joint covariance of the features the candidates
+// observe has been recovered.
 #pragma once
 
 #include <cstdint>
@@ -25,8 +25,9 @@
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
 
-#include "backend/pose_schur_factor.h"
-#include "backend/sparse_information.h"
+#include "backend/information_factor.h"
+#include "backend/sparse_cholesky.h"
+#include "backend/upper_column_storage.h"
 #include "core/camera.h"
 #include "core/observation.h"
 #include "core/option_table.h"
@@ -37,47 +38,29 @@ namespace ieslam {
 struct InformationFilterOptions {
   // Diagonal of the first pose's information block: the first pose is the origin.
   double anchor_information = 1e10;
-  // Nested dissection: on the paper's simulation ~0.6x AMD's fill-in flops, and in-place
-  // updates 2-4x cheaper than after AMD (the touched paths to the root are shorter).
+  // Nested dissection: less fill-in than AMD, and the in-place updates after it touch
+  // shorter paths to the root (docs/filter_internals.md).
   FillReducingOrdering ordering = FillReducingOrdering::kMetis;
   // Room kept in the factor for new variables, as a fraction of the state at each full
-  // factorisation: updates are made in place until it runs out (sparse_information.h);
+  // factorisation: updates are made in place until it runs out (backend/sparse_cholesky.h);
   // 0 refactors on every update.
   double spare_capacity = 0.25;
   // Up to this pose dimension (6 per pose) the matrix is factored through its dense pose
   // Schur complement (backend/pose_schur_factor.h); past it the sparse factor takes over for
-  // good; 0: always sparse. Both are exact. Measured (CPU time, this repository's benchmarks):
-  // the paper's two-loop simulation 1.5x faster per update and per run, a banded corridor of
-  // 382 poses 2.3x, the filter of a 41-keyframe 7-Scenes run 3x. The dense one needs O(P^2)
-  // memory, ~(6P + 600)^2 * 16 bytes: 144 MB at 2400.
+  // good; 0: always sparse. Both are exact; the dense one is the faster while the poses are
+  // few, and needs O(P^2) memory, ~(6P + 600)^2 * 16 bytes (docs/filter_internals.md).
   int max_dense_pose_dim = 2400;
   // While the pose Schur complement factors the matrix: true recovers the state after an
   // update by conjugate gradients preconditioned with the last factor (the poses added since
   // eliminated exactly), and refactors only when a query needs the exact factor (log det,
-  // covariances), when CG does not converge within cg_max_iterations, when refactoring is
-  // the cheaper, or when the solves have grown dearer by as much as a refactor costs
-  // (backend/pose_schur_factor.h); false refactors on every update. CG stops when the
-  // error's Mahalanobis norm is below cg_tolerance (up to the float preconditioner's
-  // relative error), so each state component is within cg_tolerance of its standard
-  // deviation of the exact solve. Solve errors do not compound (each solve is bounded on its
-  // own, against the exact I and i); each only shifts later linearisation points, by a
-  // fraction of a standard deviation, a second-order effect that stays in I and i
-  // (linearising at the estimate instead of the truth shifts them by about one). At 1e-3
-  // that is far below the digits the filter's numbers are reported to: on the paper's
-  // simulation (all frames, seed 7, 3 runs) the mean NEES agrees with that at 1e-10 to 5
-  // significant digits (6.0303) and the mean ATE to all 5 printed (2.3186 mm); 1e-2, ten
-  // times looser, is where it first shows (NEES 6.0308). CG iterations an update at state
-  // 7,389: ~7.1 at 1e-10, ~4.5 at 1e-6, ~2.8 at 1e-3; mean update time over 24 at 1e-3
-  // against 1e-6, eight pairs side by side on a noisy machine: median 16.8 ms against 24.3
-  // (13.5-20.8 against 18.6-27.9). The tests check 1e-10 against the exact filter to 1e-9
-  // absolute, and the default's bound.
-  // Updates that follow a query stay exact (the selector queries once per added frame).
-  // Measured (CPU time, noisy shared machine): the paper's all-frames simulation 3.8 s a run
-  // instead of 11.5 s; an update at state 7,389 (300 poses) 34-41 ms on average over 24
-  // (the preconditioner in float; 53-55 ms in double, measured side by side) instead of
-  // ~195 ms; since the couplings are streamed pose by pose, S synced by columns and
-  // cg_flop_weight lowered to 2, 0.62-0.76 of that (18-26 ms against 28-35, side by side;
-  // the all-frames simulation's run 2.0 s against 2.9).
+  // covariances), when CG does not converge within cg_max_iterations, or when refactoring is
+  // the cheaper (backend/pose_schur_factor.h); false refactors on every update. Updates that
+  // follow a query stay exact (the selector queries once per added frame).
+  // CG stops when the error's Mahalanobis norm is below cg_tolerance (up to the float
+  // preconditioner's relative error): each state component is within cg_tolerance of its
+  // standard deviation of the exact solve. The errors do not compound (each solve is bounded
+  // on its own, against the exact I and i), and the default lies far below the digits the
+  // filter's results are reported to (docs/filter_internals.md).
   bool iterative_recovery = true;
   double cg_tolerance = 1e-3;
   int cg_max_iterations = 60;
@@ -112,7 +95,7 @@ struct FeatureCovariance {
   Eigen::MatrixXd covariance;              // 3 * feature_ids.size() square
 };
 
-// The three terms of an information gain (METHOD.md §4), in nats: the new features' own
+// The three terms of an information gain (§V-A), in nats: the new features' own
 // blocks, the new pose (log det C), and what the candidate tells about the features already
 // in the map, log det(I + P_SS (A - B C^-1 B^T)). The first two are nearly the same for every
 // candidate of a buffer under the equal-dimension rule; the map term is what sets them apart.
@@ -197,7 +180,7 @@ class InformationFilter {
   // pose, 3 for a feature), from solves against their columns only.
   Eigen::MatrixXd MarginalCovariance(const std::vector<VariableRef>& variables) const;
 
-  // --- Information gain for the frame selector (METHOD.md §4). ---
+  // --- Information gain for the frame selector (§V-A). ---
   // Joint covariance of the known features among `feature_ids` (unknown ids are skipped).
   FeatureCovariance JointFeatureCovariance(const std::vector<int64_t>& feature_ids) const;
   // Features among `observations` not yet in the map.
@@ -205,7 +188,9 @@ class InformationFilter {
   // log det I(k+1) - log det I(k) for adding a pose at T_w_c_candidate with these
   // observations, counting only the first num_new_features_to_count new features (the
   // equal-dimension rule; a negative value counts all). `known` must cover every known
-  // feature observed. Returns -infinity when the observations cannot determine the pose.
+  // feature observed. Returns -infinity when the observations cannot be linearised (one is
+  // malformed, as ValidateObservations says, or a feature lies within min_depth_m of the
+  // candidate camera's plane or behind it) or cannot determine the pose.
   double InformationGain(const Vector6d& T_w_c_candidate,
                          const std::vector<FeatureObservation>& observations,
                          int num_new_features_to_count, const FeatureCovariance& known,
@@ -218,18 +203,23 @@ class InformationFilter {
                                    int num_new_features_to_count) const;
 
   const InformationFilterTimings& last_timings() const { return timings_; }
-  int64_t FactorNonzeros() const {
-    CheckRecovered();
-    return schur_ != nullptr ? schur_->FactorNonzeros() : cholesky_->FactorNonzeros();
-  }
+  int64_t FactorNonzeros() const;
   // True while the dense pose Schur complement factors the matrix (max_dense_pose_dim).
-  bool uses_pose_schur() const { return schur_ != nullptr; }
+  bool uses_pose_schur() const;
   const InformationFilterOptions& options() const { return options_; }
 
  private:
   struct Linearization;
+  struct ObservationJacobians;
+  struct Undo;
 
+  // One observation's Jacobians at T_w_c and its feature's linearisation point (a new
+  // feature's from the observation, a known one's current estimate). False when that point
+  // lies within min_depth_m of the camera plane or behind it: it cannot be linearised.
+  bool LinearizeObservation(const Vector6d& T_w_c, const FeatureObservation& obs, bool is_new,
+                            ObservationJacobians* jacobians) const;
   // Jacobians at the current estimate (new pose and new features at their initial values).
+  // Throws DataError naming the frame when an observation cannot be linearised.
   Linearization Linearize(int frame_id, const Vector6d& T_w_c,
                           const std::vector<FeatureObservation>& observations,
                           int max_new_features) const;
@@ -239,6 +229,13 @@ class InformationFilter {
                       UpperColumnStorage* matrix) const;
   void Update(int frame_id, const Vector6d& T_w_c,
               const std::vector<FeatureObservation>& observations, bool anchor);
+  // Adds the update to the matrix and the information vector; returns what it overwrote.
+  Undo AddToInformation(const Linearization& lin, const Vector6d& T_w_c, double pose_prior);
+  void TakeBack(const Undo& undo);
+  // What the factor needs of the update besides the matrix.
+  InformationUpdate FactorUpdate(const Linearization& lin, int old_dim, double pose_prior) const;
+  // Deferred: the new pose and features enter the state at their initial values.
+  void GrowState(const Linearization& lin, int old_dim);
   // Records the new pose's and features' places once their update is accepted.
   void Register(const Linearization& lin, int frame_id, int old_dim, int new_dim);
   std::vector<int> ScalarIndices(const std::vector<VariableRef>& variables) const;
@@ -254,15 +251,10 @@ class InformationFilter {
   InformationFilterOptions options_;
   PinholeCamera camera_;
   UpperColumnStorage matrix_;
-  std::unique_ptr<SparseCholesky> cholesky_;
-  // Null once past max_dense_pose_dim. Const queries may make it exact (EnsureExactFactor):
-  // its state is a cache of the matrix, which they do not change.
-  std::unique_ptr<PoseSchurFactor> schur_;
+  // Const queries may make it exact (EnsureExactFactor): its state is a cache of the
+  // matrix, which they do not change.
+  std::unique_ptr<InformationFactor> factor_;
   mutable std::mutex factor_mutex_;
-  // A query needed the exact factor since the last update. Then the next update keeps it
-  // exact: the selector asks once per added frame, and refactoring at the update (in the
-  // trailing window, usually) costs less than a lazy update and a refactor at the query.
-  mutable bool queried_ = false;
   Eigen::VectorXd info_vector_;
   Eigen::VectorXd state_;
   std::vector<int> frame_ids_;

@@ -171,12 +171,10 @@ class Run {
         }
       }
       GainTerms terms;
-      double gain = -std::numeric_limits<double>::infinity();
-      try {
-        gain = filter_->InformationGain(InitialPose(c), scored, min_new, covariance, &terms);
-      } catch (const DataError&) {
-        // A feature behind the candidate's camera: the registration is wrong, not scorable.
-      }
+      // -infinity when a feature lies behind the candidate's camera: the registration is
+      // wrong, and the candidate not scorable.
+      const double gain =
+          filter_->InformationGain(InitialPose(c), scored, min_new, covariance, &terms);
       decision->candidates.push_back(c.frame);
       decision->gains.push_back(gain);
       decision->map_gains.push_back(std::isfinite(gain) ? terms.map : gain);

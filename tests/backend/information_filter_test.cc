@@ -75,6 +75,12 @@ std::vector<FeatureObservation> Observe(const Scene& scene, int i, bool noisy, s
   return observations;
 }
 
+// The first two poses of `scene`, from noise-free observations.
+void AddFirstTwoPoses(const Scene& scene, std::mt19937* rng, InformationFilter* filter) {
+  filter->AddFirstPose(scene.frame_ids[0], scene.poses[0], Observe(scene, 0, false, rng));
+  filter->AddPose(scene.frame_ids[1], scene.poses[1], Observe(scene, 1, false, rng));
+}
+
 Vector6d Perturb(const Vector6d& pose, double metres, double radians, std::mt19937* rng) {
   std::normal_distribution<double> normal(0.0, 1.0);
   Vector6d perturbed = pose;
@@ -183,8 +189,7 @@ TEST_P(InformationFilterTest, TooFewKnownFeaturesFailsCleanly) {
   std::mt19937 rng(4);
   const Scene scene = MakeScene(3, 50, &rng);
   InformationFilter filter(DefaultOptions(), scene.camera);
-  filter.AddFirstPose(scene.frame_ids[0], scene.poses[0], Observe(scene, 0, false, &rng));
-  filter.AddPose(scene.frame_ids[1], scene.poses[1], Observe(scene, 1, false, &rng));
+  AddFirstTwoPoses(scene, &rng, &filter);
   const int dim = filter.state_dim();
   const double log_det = filter.LogDetInformation();
   const Eigen::VectorXd state = filter.state();
@@ -396,6 +401,36 @@ TEST_P(InformationFilterTest, GainIsMinusInfinityWhenThePoseIsUndetermined) {
             -std::numeric_limits<double>::infinity());
 }
 
+// A candidate whose registration puts a known feature behind its camera, or whose
+// observations are malformed, cannot be linearised: -infinity, not an exception.
+TEST_P(InformationFilterTest, GainIsMinusInfinityWhenTheObservationsCannotBeLinearised) {
+  std::mt19937 rng(19);
+  const Scene scene = MakeScene(4, 60, &rng);
+  InformationFilter filter(DefaultOptions(), scene.camera);
+  AddFirstTwoPoses(scene, &rng, &filter);
+  const std::vector<FeatureObservation> observations = Observe(scene, 2, false, &rng);
+  std::vector<int64_t> ids;
+  for (const FeatureObservation& obs : observations) ids.push_back(obs.feature_id);
+  const FeatureCovariance known = filter.JointFeatureCovariance(ids);
+  const int new_features = filter.CountNewFeatures(observations);
+  GainTerms terms;
+  ASSERT_TRUE(std::isfinite(
+      filter.InformationGain(scene.poses[2], observations, new_features, known, &terms)));
+  // Turned about its y axis by pi: every feature lies behind the camera.
+  Vector6d turned = scene.poses[2];
+  turned[4] += M_PI;
+  GainTerms untouched = terms;
+  EXPECT_EQ(filter.InformationGain(turned, observations, new_features, known, &untouched),
+            -std::numeric_limits<double>::infinity());
+  EXPECT_EQ(untouched.total(), terms.total());
+  std::vector<FeatureObservation> doubled = observations;
+  doubled.push_back(doubled.front());
+  EXPECT_EQ(filter.InformationGain(scene.poses[2], doubled, new_features, known),
+            -std::numeric_limits<double>::infinity());
+  // Adding such a frame is refused, naming it.
+  EXPECT_THROW(filter.AddPose(99, turned, observations), DataError);
+}
+
 TEST_P(InformationFilterTest, OptionsCheckRejectsANegativeSpareCapacity) {
   InformationFilterOptions options;
   options.spare_capacity = -0.1;
@@ -583,69 +618,6 @@ TEST_P(InformationFilterTest, DeferredRecoveryMatchesStepByStepAtExactLinearisat
   batch.set_defer_recovery(false);
   const std::vector<FeatureObservation> more = Observe(scene, 5, false, &rng);
   EXPECT_THROW(batch.AddPose(scene.frame_ids[5], scene.poses[5], more), DataError);
-}
-
-// SparseCholesky on its own: in-place updates (diagonal increments, new rows) agree with a
-// full factorisation, a non-positive-definite update is refused with the factor dropped,
-// and a full factorisation then recovers.
-TEST(SparseCholeskyTest, InPlaceUpdatesAgreeWithFullFactorisation) {
-  std::mt19937 rng(18);
-  std::uniform_real_distribution<double> uniform(-1.0, 1.0);
-  // Dense SPD blocks of 3, each coupled to the previous one: appended column by column.
-  auto append_block = [&](UpperColumnStorage* matrix, Eigen::MatrixXd* dense) {
-    const int first = matrix->dim();
-    dense->conservativeResize(first + 3, first + 3);
-    dense->rightCols(3).setZero();
-    dense->bottomRows(3).setZero();
-    for (int k = 0; k < 3; ++k) {
-      matrix->StartColumn();
-      for (int r = std::max(0, first - 3); r <= first + k; ++r) {
-        const double value = r == first + k ? 8.0 : 0.5 * uniform(rng);
-        matrix->Append(r, value);
-        (*dense)(r, first + k) = (*dense)(first + k, r) = value;
-      }
-    }
-  };
-  UpperColumnStorage matrix;
-  Eigen::MatrixXd dense(0, 0);
-  for (int b = 0; b < 4; ++b) append_block(&matrix, &dense);
-  SparseCholesky incremental(FillReducingOrdering::kMetis, 1.0);
-  ASSERT_TRUE(incremental.Factorize(matrix, true));
-  for (int step = 0; step < 3; ++step) {
-    const int old_dim = matrix.dim();
-    Eigen::Matrix3d root;
-    for (int k = 0; k < 9; ++k) root(k % 3, k / 3) = uniform(rng);
-    const Eigen::Matrix3d increment = root * root.transpose();
-    const int first = 3 * step;
-    matrix.AddToDiagonalBlock(first, increment);
-    dense.block<3, 3>(first, first) += increment;
-    append_block(&matrix, &dense);
-    ASSERT_TRUE(incremental.Update(matrix, old_dim, {{first, increment}})) << "step " << step;
-  }
-  SparseCholesky full(FillReducingOrdering::kAmd);
-  ASSERT_TRUE(full.Factorize(matrix, true));
-  const Eigen::LLT<Eigen::MatrixXd> llt(dense);
-  const double log_det = 2.0 * llt.matrixLLT().diagonal().array().log().sum();
-  EXPECT_NEAR(incremental.LogDet(), log_det, 1e-12 * std::abs(log_det));
-  EXPECT_NEAR(full.LogDet(), log_det, 1e-12 * std::abs(log_det));
-  const Eigen::VectorXd rhs = Eigen::VectorXd::LinSpaced(dense.rows(), -1.0, 2.0);
-  EXPECT_LT((incremental.Solve(rhs) - llt.solve(rhs)).norm(), 1e-12);
-  const std::vector<int> indices = {7, 0, 13, 2};
-  const Eigen::MatrixXd inverse = llt.solve(Eigen::MatrixXd::Identity(dense.rows(), dense.rows()));
-  EXPECT_LT((incremental.InverseSubmatrix(indices) - inverse(indices, indices)).norm(), 1e-12);
-  EXPECT_LT((full.InverseSubmatrix(indices) - inverse(indices, indices)).norm(), 1e-12);
-
-  // A new variable coupled too strongly: not positive definite.
-  const int old_dim = matrix.dim();
-  matrix.StartColumn();
-  matrix.Append(0, 20.0);
-  matrix.Append(old_dim, 1.0);
-  EXPECT_FALSE(incremental.Update(matrix, old_dim, {}));
-  EXPECT_FALSE(incremental.valid());
-  EXPECT_FALSE(incremental.Factorize(matrix, true));
-  matrix.Truncate(old_dim);
-  ASSERT_TRUE(incremental.Factorize(matrix, true));
-  EXPECT_NEAR(incremental.LogDet(), log_det, 1e-12 * std::abs(log_det));
 }
 
 }  // namespace

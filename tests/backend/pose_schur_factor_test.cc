@@ -10,56 +10,19 @@
 #include <gtest/gtest.h>
 #include <Eigen/Cholesky>
 
+#include "backend/random_pose_problem.h"
+
 namespace ieslam {
 namespace {
 
-// A random problem in information form laid out as the filter lays it out (each pose after
-// its new features), with a trajectory that goes out and comes back twice, so that later
-// poses re-observe features of poses long left: the factor's window has to evict poses and
-// move them back in. `dense` mirrors every addition.
-struct RandomProblem {
-  explicit RandomProblem(unsigned seed) : rng(seed) {}
+// The random problem of random_pose_problem.h fed to a PoseSchurFactor.
+struct RandomProblem : testing::RandomPoseProblem {
+  explicit RandomProblem(unsigned seed) : RandomPoseProblem(seed) {}
 
-  // Adds pose k observing the features around place(k) (a triangle wave over 12 places, 6
-  // features each); `factor` gets it with or without refactoring.
+  // Adds pose k; `factor` gets it with or without refactoring.
   bool AddPose(int k, PoseSchurFactor* factor, SchurUpdate update) {
-    const int place = std::abs((k + 6) % 24 - 12);
-    std::normal_distribution<double> normal(0.0, 1.0);
-    std::vector<SchurObservation> observations;
-    Eigen::Matrix<double, 6, 6> I_pp = Eigen::Matrix<double, 6, 6>::Zero();
-    if (k == 0) I_pp = 100.0 * Eigen::Matrix<double, 6, 6>::Identity();  // the anchor
-    std::vector<Eigen::Matrix<double, 3, 9>> H;
-    for (int f = 6 * place; f < 6 * place + 9; ++f) {
-      SchurObservation obs;
-      obs.is_new = offset_of.count(f) == 0;
-      if (obs.is_new) {
-        offset_of[f] = dim;
-        dim += 3;
-      }
-      obs.feature_offset = offset_of[f];
-      Eigen::Matrix<double, 3, 9> h;
-      for (int i = 0; i < h.size(); ++i) h(i) = normal(rng);
-      I_pp += h.leftCols<6>().transpose() * h.leftCols<6>();
-      obs.I_pf = h.leftCols<6>().transpose() * h.rightCols<3>();
-      // (+ a little, so that no feature is nearly undetermined: the dense inverse used as
-      // the reference stays accurate to 1e-9.)
-      obs.I_ff =
-          h.rightCols<3>().transpose() * h.rightCols<3>() + 0.5 * Eigen::Matrix3d::Identity();
-      observations.push_back(obs);
-    }
-    const int pose_offset = dim;
-    dim += 6;
-    const Eigen::MatrixXd old = I;
-    I = Eigen::MatrixXd::Zero(dim, dim);
-    I.topLeftCorner(old.rows(), old.cols()) = old;
-    I.block<6, 6>(pose_offset, pose_offset) = I_pp;
-    for (const SchurObservation& obs : observations) {
-      I.block<3, 3>(obs.feature_offset, obs.feature_offset) += obs.I_ff;
-      I.block<6, 3>(pose_offset, obs.feature_offset) = obs.I_pf;
-      I.block<3, 6>(obs.feature_offset, pose_offset) = obs.I_pf.transpose();
-    }
-    pose_offsets.push_back(pose_offset);
-    return factor->AddPose(pose_offset, I_pp, observations, update);
+    const testing::PoseAddition addition = Next(k);
+    return factor->AddPose(addition.pose_offset, addition.I_pp, addition.observations, update);
   }
 
   void ExpectAgreement(const PoseSchurFactor& factor) {
@@ -83,12 +46,6 @@ struct RandomProblem {
     const Eigen::MatrixXd expected = llt.solve(unit)(indices, Eigen::all);
     EXPECT_LT((factor.InverseSubmatrix(indices) - expected).norm(), 1e-9 * expected.norm());
   }
-
-  std::mt19937 rng;
-  std::map<int, int> offset_of;  // feature -> offset
-  std::vector<int> pose_offsets;
-  int dim = 0;
-  Eigen::MatrixXd I;
 };
 
 TEST(PoseSchurFactorTest, AgreesWithTheDenseFactorThroughEvictionsAndMoves) {
@@ -198,9 +155,9 @@ TEST(PoseSchurFactorTest, AFailedAdditionLeavesTheFactorUnchanged) {
   const Eigen::VectorXd before = factor.Solve(i);
   const double log_det = factor.LogDet();
   // Re-observes two features with a rank-deficient pose block: not positive definite.
-  SchurObservation obs;
+  ObservationBlocks obs;
   obs.feature_offset = problem.offset_of.begin()->second;
-  std::vector<SchurObservation> observations = {obs};
+  std::vector<ObservationBlocks> observations = {obs};
   EXPECT_FALSE(factor.AddPose(problem.dim, Eigen::Matrix<double, 6, 6>::Zero(), observations,
                               SchurUpdate::kExact));
   EXPECT_EQ(factor.num_poses(), 25);
@@ -222,7 +179,7 @@ TEST(PoseSchurFactorTest, ALazyAdditionThatIsNotPositiveDefiniteIsRefused) {
   const Eigen::VectorXd zero = Eigen::VectorXd::Zero(problem.dim);
   Eigen::VectorXd before, after;
   ASSERT_TRUE(factor.SolveIteratively(i, zero, &before));
-  SchurObservation obs;
+  ObservationBlocks obs;
   obs.feature_offset = problem.offset_of.begin()->second;
   EXPECT_FALSE(
       factor.AddPose(problem.dim, Eigen::Matrix<double, 6, 6>::Zero(), {obs}, SchurUpdate::kLazy));

@@ -4,16 +4,17 @@
 //
 // Two kinds of problem, both with the paper's statistics (~100 (u, v, d) observations per
 // pose, every feature seen from tens of poses):
-//  - the paper's simulation (frontend/simulation/paper_simulation.h): two loops through one volume,
-//  so
-//    the second loop re-observes the first loop's features and the pose block of the factor
-//    fills in completely -- the hard case;
+//  - the paper's simulation (frontend/simulation/paper_simulation.h): two loops through one
+//    volume, so the second loop re-observes the first loop's features and the pose block of
+//    the factor fills in completely -- the hard case;
 //  - a corridor: a camera sliding along a long box of features, never coming back, so the
 //    factor stays banded -- the case where the size can grow to 50,000 variables.
 // Each benchmark loads its frames with deferred recovery (one factorisation), then times
 // ordinary AddPose calls, each one a full EIF update + recovery. Up to 400 poses the filter
 // factors through its dense pose Schur complement (InformationFilterOptions::
-// max_dense_pose_dim); the _SparseOnly variants time the sparse CHOLMOD factor instead.
+// max_dense_pose_dim); the _SparseOnly variants time the sparse CHOLMOD factor instead, the
+// _ExactRecovery ones refactor at every update. docs/filter_internals.md has what these
+// measured.
 //
 // Run: build with -DIESLAM_BUILD_BENCHMARKS=ON, then
 //   ieslam_bench --benchmark_filter=InformationFilter
@@ -303,10 +304,10 @@ BENCHMARK(BM_InformationFilter_JointFeatureCovariance150_Corridor35k)
     ->Iterations(5)
     ->Unit(benchmark::kMillisecond);
 
-// The selector's fast gain (METHOD.md §4): scoring one candidate given the joint covariance
-// of the known features it observes, with 100 and 1000 poses in the map. The scoring does not
-// depend on the map's size; the covariance, recovered once per buffer, does, and is reported
-// as the counter covariance_ms.
+// The selector's fast gain (Zhou et al. 2008, §V-A; InformationFilter::InformationGain): scoring
+// one candidate given the joint covariance of the known features it observes, with 100 and 1000
+// poses in the map. The scoring does not depend on the map's size; the covariance, recovered once
+// per buffer, does, and is reported as the counter covariance_ms.
 void BM_InformationGainPerCandidate_Corridor(benchmark::State& state) {
   const int poses = static_cast<int>(state.range(0));
   const Problem problem = CorridorProblem(poses + 1);
