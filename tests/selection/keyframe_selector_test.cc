@@ -9,19 +9,12 @@
 #include "backend/evaluation/evaluation.h"
 #include "frontend/simulation/known_association_source.h"
 #include "frontend/simulation/paper_simulation.h"
+#include "short_paper_simulation.h"
 
 namespace ieslam {
 namespace {
 
-// A short version of the paper's simulation: one loop of 80 poses.
-SimulatedDataset ShortSimulation(bool noise, uint32_t noise_seed = 2) {
-  SimulationOptions options;
-  options.trajectory.num_poses = 80;
-  options.trajectory.num_loops = 1;
-  options.add_noise = noise;
-  options.noise_seed = noise_seed;
-  return SimulatePaperScenario(options);
-}
+using testing_selection::ShortPaperSimulation;
 
 SelectorOptions Kind(SelectorKind kind) {
   SelectorOptions options;
@@ -64,7 +57,7 @@ Vector6d PoseError(const SelectorRun& run, const SimulatedDataset& data, int fra
 }
 
 TEST(KeyframeSelectorTest, NoiseFreeAllFramesFilterRecoversTheTruth) {
-  const SimulatedDataset data = ShortSimulation(false);
+  const SimulatedDataset data = ShortPaperSimulation(false);
   const SelectorRun m = RunSelector(data, Kind(SelectorKind::kAll));
   EXPECT_EQ(m.frames_used(), 80);
   for (const int frame : m.selection.selected) {
@@ -75,7 +68,7 @@ TEST(KeyframeSelectorTest, NoiseFreeAllFramesFilterRecoversTheTruth) {
 }
 
 TEST(KeyframeSelectorTest, InfoSelectorUsesFewerFramesAndRecordsEveryDecision) {
-  const SimulatedDataset data = ShortSimulation(true);
+  const SimulatedDataset data = ShortPaperSimulation(true);
   const SelectorRun m = RunSelector(data, Kind(SelectorKind::kInfo));
   EXPECT_LT(m.frames_used(), 80);
   EXPECT_GT(m.frames_used(), 80 / 3 - 1);  // a buffer of 3 adds at least every third frame
@@ -101,7 +94,7 @@ TEST(KeyframeSelectorTest, InfoSelectorUsesFewerFramesAndRecordsEveryDecision) {
 }
 
 TEST(KeyframeSelectorTest, IntervalSelectsEveryNthFrame) {
-  const SimulatedDataset data = ShortSimulation(true);
+  const SimulatedDataset data = ShortPaperSimulation(true);
   SelectorOptions options = Kind(SelectorKind::kInterval);
   options.interval = 4;
   const SelectorRun m = RunSelector(data, options);
@@ -111,7 +104,7 @@ TEST(KeyframeSelectorTest, IntervalSelectsEveryNthFrame) {
 }
 
 TEST(KeyframeSelectorTest, DeadReckoningDriftsMoreThanTheFilter) {
-  const SimulatedDataset data = ShortSimulation(true);
+  const SimulatedDataset data = ShortPaperSimulation(true);
   const SelectorRun filtered = RunSelector(data, Kind(SelectorKind::kAll));
   const double filtered_error =
       PoseError(filtered, data, filtered.selection.selected.back()).head<3>().norm();
@@ -130,7 +123,7 @@ TEST(KeyframeSelectorTest, DeadReckoningDriftsMoreThanTheFilter) {
 // with the threshold at 2.5 times the trajectory's typical per-frame rotation, candidates are
 // at least two frames apart, fewer frames enter the filter, and every frame is still placed.
 TEST(KeyframeSelectorTest, CandidatesNeedAViewChangeAndTheFramesBetweenArePlaced) {
-  const SimulatedDataset data = ShortSimulation(true);
+  const SimulatedDataset data = ShortPaperSimulation(true);
   std::vector<double> per_frame;
   for (size_t k = 1; k < data.T_w_c_true.size(); ++k) {
     const Eigen::Isometry3d T =

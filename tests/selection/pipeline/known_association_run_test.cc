@@ -6,19 +6,13 @@
 
 #include <gtest/gtest.h>
 
-#include "frontend/simulation/paper_simulation.h"
+#include "selection/short_paper_simulation.h"
 
 namespace ieslam {
 namespace {
 
-// A short version of the paper's simulation: one loop of 80 poses.
 KnownAssociationInput ShortSimulation(bool noise, uint32_t noise_seed = 2) {
-  SimulationOptions options;
-  options.trajectory.num_poses = 80;
-  options.trajectory.num_loops = 1;
-  options.add_noise = noise;
-  options.noise_seed = noise_seed;
-  const SimulatedDataset data = SimulatePaperScenario(options);
+  const SimulatedDataset data = testing_selection::ShortPaperSimulation(noise, noise_seed);
   return {data.observations, data.T_w_c_true, data.camera};
 }
 
