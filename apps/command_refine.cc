@@ -11,7 +11,6 @@
 #include "apps/commands.h"
 #include "core/error.h"
 #include "core/file_util.h"
-#include "core/version.h"
 #include "selection/pipeline/run_options.h"
 #include "selection/pipeline/stored_refinement.h"
 
@@ -59,34 +58,6 @@ StoredRefinementOptions RefineOptionsFromFlags(const Flags& flags, RunOptions* c
   return options;
 }
 
-Json RefineReport(const Flags& flags, const StoredRefinementOptions& options,
-                  const StoredRefinement& r) {
-  // The options as the run's config sections report them.
-  RunOptions used;
-  used.pipeline.ba = options.ba;
-  used.pipeline.depth_alignment = options.depth_alignment;
-  used.range_cloud = options.range_cloud;
-  Json sections = RunOptions::Registry().ToJson(used);
-  Json report = Json::Object();
-  report.Set("version", IeslamVersion())
-      .Set("run", flags.Require("run"))
-      .Set("poses", static_cast<int>(r.stored.problem.T_w_c.size()))
-      .Set("features", static_cast<int>(r.stored.problem.p_w.size()))
-      .Set("observations", static_cast<int>(r.stored.problem.observations.size()));
-  report["options"].Set("ba", sections["ba"]);
-  report["options"]["ba"].Set("threads", options.ba.num_threads);
-  report["options"].Set("start", options.from_ground_truth ? "ground_truth" : "run");
-  if (r.aligned_clouds) {
-    report["options"].Set("dataset", flags.GetString("dataset", ""));
-    report["options"].Set("depth_alignment", sections["depth_alignment"]);
-  }
-  report["seconds"].Set("ba", r.refinement.seconds);
-  if (r.ate_keyframes_m >= 0.0) report["ate_rmse_m"].Set("keyframes", r.ate_keyframes_m);
-  if (r.ate_refined_m >= 0.0) report["ate_rmse_m"].Set("refined", r.ate_refined_m);
-  report.Set("filter_vs_smoother", RefinementToJson(r.refinement));
-  return report;
-}
-
 }  // namespace
 
 int RefineCommand(const CommandArgs& args) {
@@ -117,7 +88,7 @@ int RefineCommand(const CommandArgs& args) {
   PrepareOutputDirectory(out);
   WriteTumTrajectory(JoinPath(out, "refined.tum"), refined.refined,
                      "ieslam bundle-adjusted keyframes");
-  const Json report = RefineReport(flags, options, refined);
+  const Json report = StoredRefinementReport(run, flags.GetString("dataset", ""), options, refined);
   WriteTextAtomically(JoinPath(out, "report.json"), report.Dump() + "\n");
   const BundleAdjustmentProblem& problem = refined.stored.problem;
   std::printf("refine: %zu poses, %zu features, %zu observations, %.2f s\n", problem.T_w_c.size(),

@@ -47,23 +47,6 @@ RunOptions RunOptionsFromFlags(const Flags& flags) {
   return options;
 }
 
-// One log line per selector decision, for --verbose; frames by their dataset index.
-std::string DescribeDecision(const SelectionDecision& d, const Dataset& dataset) {
-  std::string line = "run: " + d.reason + ": candidates";
-  char number[32];
-  const std::vector<int> candidates = SourceIndices(dataset, d.candidates);
-  for (size_t k = 0; k < candidates.size(); ++k) {
-    line += (k == 0 ? " " : ",") + std::to_string(candidates[k]);
-    if (k < d.gains.size()) {
-      std::snprintf(number, sizeof(number), " (gain %.1f, map %.1f)", d.gains[k], d.map_gains[k]);
-      line += number;
-    }
-  }
-  line += " -> added";
-  for (const int index : SourceIndices(dataset, d.added)) line += " " + std::to_string(index);
-  return line;
-}
-
 void PrintSummary(const Dataset& dataset, const RunOptions& options, const RunResult& run,
                   const std::string& output) {
   const PipelineResult& p = run.pipeline;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 #include "core/version.h"
 
@@ -74,6 +75,22 @@ std::vector<int> SourceIndices(const Dataset& dataset, const std::vector<int>& f
   std::vector<int> indices;
   for (const int frame : frames) indices.push_back(dataset.info(frame).source_index);
   return indices;
+}
+
+std::string DescribeDecision(const SelectionDecision& d, const Dataset& dataset) {
+  std::string line = "run: " + d.reason + ": candidates";
+  char number[32];
+  const std::vector<int> candidates = SourceIndices(dataset, d.candidates);
+  for (size_t k = 0; k < candidates.size(); ++k) {
+    line += (k == 0 ? " " : ",") + std::to_string(candidates[k]);
+    if (k < d.gains.size()) {
+      std::snprintf(number, sizeof(number), " (gain %.1f, map %.1f)", d.gains[k], d.map_gains[k]);
+      line += number;
+    }
+  }
+  line += " -> added";
+  for (const int index : SourceIndices(dataset, d.added)) line += " " + std::to_string(index);
+  return line;
 }
 
 Json RunReport(const Dataset& dataset, const RunOptions& options, const RunResult& run,

@@ -11,6 +11,8 @@
 #include "core/error.h"
 #include "core/file_util.h"
 #include "core/timestamp_association.h"
+#include "core/version.h"
+#include "selection/pipeline/run_options.h"
 
 namespace ieslam {
 namespace {
@@ -172,6 +174,34 @@ StoredRefinement RefineStoredRun(const std::string& run_dir, const Dataset* data
         &result.warnings);
   }
   return result;
+}
+
+Json StoredRefinementReport(const std::string& run_dir, const std::string& dataset_dir,
+                            const StoredRefinementOptions& options, const StoredRefinement& r) {
+  // The options as the run's config sections report them.
+  RunOptions used;
+  used.pipeline.ba = options.ba;
+  used.pipeline.depth_alignment = options.depth_alignment;
+  used.range_cloud = options.range_cloud;
+  Json sections = RunOptions::Registry().ToJson(used);
+  Json report = Json::Object();
+  report.Set("version", IeslamVersion())
+      .Set("run", run_dir)
+      .Set("poses", static_cast<int>(r.stored.problem.T_w_c.size()))
+      .Set("features", static_cast<int>(r.stored.problem.p_w.size()))
+      .Set("observations", static_cast<int>(r.stored.problem.observations.size()));
+  report["options"].Set("ba", sections["ba"]);
+  report["options"]["ba"].Set("threads", options.ba.num_threads);
+  report["options"].Set("start", options.from_ground_truth ? "ground_truth" : "run");
+  if (r.aligned_clouds) {
+    report["options"].Set("dataset", dataset_dir);
+    report["options"].Set("depth_alignment", sections["depth_alignment"]);
+  }
+  report["seconds"].Set("ba", r.refinement.seconds);
+  if (r.ate_keyframes_m >= 0.0) report["ate_rmse_m"].Set("keyframes", r.ate_keyframes_m);
+  if (r.ate_refined_m >= 0.0) report["ate_rmse_m"].Set("refined", r.ate_refined_m);
+  report.Set("filter_vs_smoother", RefinementToJson(r.refinement));
+  return report;
 }
 
 }  // namespace ieslam

@@ -52,4 +52,9 @@ RangeClouds LoadRangeCloudsAtTimestamps(const Dataset& dataset, const StoredBaPr
 StoredRefinement RefineStoredRun(const std::string& run_dir, const Dataset* dataset,
                                  const StoredRefinementOptions& options);
 
+// report.json of `ieslam refine`: the run and dataset refined (`dataset_dir` empty without
+// one), the options as the config sections name them, the ATE, the refinement's summary.
+Json StoredRefinementReport(const std::string& run_dir, const std::string& dataset_dir,
+                            const StoredRefinementOptions& options, const StoredRefinement& r);
+
 }  // namespace ieslam
