@@ -1,8 +1,6 @@
 #include "apps/flags.h"
 
-#include <cmath>
 #include <cstdlib>
-#include <limits>
 #include <sstream>
 
 #include "core/error.h"
@@ -76,22 +74,6 @@ int Flags::GetInt(const std::string& name, int fallback, int min, int max) const
                       std::to_string(max) + "], got " + it->second);
   }
   return static_cast<int>(value);
-}
-
-double Flags::GetDouble(const std::string& name, double fallback, double min, double max) const {
-  const auto it = values_.find(name);
-  if (it == values_.end()) return fallback;
-  char* end = nullptr;
-  const double value = std::strtod(it->second.c_str(), &end);
-  if (it->second.empty() || *end != '\0' || !std::isfinite(value)) {
-    throw ConfigError("--" + name + " must be a finite number, got '" + it->second + "'");
-  }
-  if (value < min || value > max) {
-    std::ostringstream s;
-    s << "--" << name << " must be in [" << min << ", " << max << "], got " << it->second;
-    throw ConfigError(s.str());
-  }
-  return value;
 }
 
 std::vector<int> Flags::GetIntList(const std::string& name, const std::vector<int>& fallback,
