@@ -3,6 +3,8 @@
 #include <filesystem>
 #include <fstream>
 
+#include <unistd.h>
+
 #include <gtest/gtest.h>
 
 #include "core/error.h"
@@ -71,7 +73,9 @@ const OptionRegistry<Root>& Registry() {
 }
 
 std::string WriteTemp(const std::string& name, const std::string& text) {
-  const fs::path path = fs::temp_directory_path() / ("ieslam_option_registry_" + name + ".yaml");
+  const fs::path path =
+      fs::temp_directory_path() /
+      ("ieslam_option_registry_" + std::to_string(::getpid()) + "_" + name + ".yaml");
   std::ofstream(path) << text;
   return path.string();
 }

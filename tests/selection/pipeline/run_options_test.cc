@@ -5,6 +5,8 @@
 #include <filesystem>
 #include <fstream>
 
+#include <unistd.h>
+
 #include <gtest/gtest.h>
 
 #include "core/error.h"
@@ -16,7 +18,9 @@ namespace {
 namespace fs = std::filesystem;
 
 std::string WriteTemp(const std::string& name, const std::string& content) {
-  const fs::path path = fs::temp_directory_path() / ("ieslam_run_options_test_" + name + ".yaml");
+  const fs::path path =
+      fs::temp_directory_path() /
+      ("ieslam_run_options_test_" + std::to_string(::getpid()) + "_" + name + ".yaml");
   std::ofstream(path) << content;
   return path.string();
 }
