@@ -126,6 +126,11 @@ TEST(OptionRegistryTest, BadFilesAndValuesNameTheFileAndTheOption) {
             std::string::npos);
   EXPECT_NE(ErrorOf("first: { steps: \"three\" }\n").find("first.steps must be an integer"),
             std::string::npos);
+  // OpenCV alone would read 4294967306 as 10.
+  EXPECT_NE(ErrorOf("first: { steps: 4294967306 }\n")
+                .find("first.steps must be in [-2147483648, 2147483647], got 4294967306"),
+            std::string::npos)
+      << ErrorOf("first: { steps: 4294967306 }\n");
   EXPECT_NE(ErrorOf("seed: 4\n").find("seed is not set directly"), std::string::npos);
   EXPECT_NE(ErrorOf("first: { steps: [1, 2] }\n").find("first.steps must be a number or a string"),
             std::string::npos);

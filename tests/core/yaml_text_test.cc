@@ -82,5 +82,65 @@ TEST(YamlForOpenCv, OpenCvErrorsAndNonMapsAreConfigErrorsNamingTheFile) {
   }
 }
 
+// The message of the ConfigError YamlForOpenCv throws for `text` ("" when it accepts it).
+std::string ScreenError(const std::string& text) {
+  try {
+    YamlForOpenCv(text, "in.yaml");
+  } catch (const ConfigError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+// OpenCV's parser recurses once per level: 50 000 `[` overflowed the stack (exit 139).
+TEST(YamlForOpenCv, DeepNestingIsRefusedNamingTheLine) {
+  EXPECT_EQ(ScreenError("%YAML:1.0\n---\na: " + std::string(50000, '[')),
+            "in.yaml:3: nesting deeper than 64 levels");
+  std::string block;  // 70 maps, each indented one more than its parent
+  for (int i = 0; i < 70; ++i) block += std::string(i, ' ') + "k" + std::to_string(i) + ":\n";
+  EXPECT_EQ(ScreenError(block), "in.yaml:65: nesting deeper than 64 levels");
+  std::string entries = "a:\n";  // block sequences nest by their `- ` too
+  for (int i = 0; i < 70; ++i) entries += "- ";
+  EXPECT_EQ(ScreenError(entries + "1\n"), "in.yaml:2: nesting deeper than 64 levels");
+  // 64 levels (the root map and 63 brackets) are accepted, and brackets that close, sit in
+  // quoted strings or in comments do not add up.
+  const std::string deepest = "a: " + std::string(63, '[') + std::string(63, ']') + "\n";
+  EXPECT_EQ(static_cast<int>(OpenYamlMap(deepest, "in.yaml")["a"].size()), 1);
+  std::string many = "a: '" + std::string(100, '[') + "'\nb: 1 # " + std::string(100, '{') + "\n";
+  for (int i = 0; i < 100; ++i) many += "c" + std::to_string(i) + ": [[1], {x: [2]}]\n";
+  EXPECT_EQ(ScreenError(many), "");
+  EXPECT_EQ(static_cast<int>(OpenYamlMap(many, "in.yaml")["b"]), 1);
+}
+
+TEST(YamlForOpenCv, TextsOverTheSizeBoundAreRefused) {
+  const std::string big = "a: 1\n# " + std::string(kMaxYamlBytes, 'x') + "\n";
+  EXPECT_EQ(ScreenError(big), "in.yaml: " + std::to_string(big.size()) + " bytes, more than the " +
+                                  std::to_string(kMaxYamlBytes) + " a YAML file may hold");
+}
+
+// OpenCV casts strtol's long to int: 4294967306 would read as 10, 3000000000 as -1294967296.
+TEST(YamlForOpenCv, IntegersOutsideIntReachTheReaderAsRealsNotWrapped) {
+  const cv::FileStorage fs = OpenYamlMap(
+      "a: 4294967306\nb: -3000000000\nc: [1, 99999999999]\nd: 2147483647\ne: -2147483648\n"
+      "f: 0x7fffffff\n",
+      "in.yaml");
+  EXPECT_TRUE(fs["a"].isReal());
+  EXPECT_EQ(static_cast<double>(fs["a"]), 4294967306.0);
+  EXPECT_EQ(static_cast<double>(fs["b"]), -3000000000.0);
+  EXPECT_TRUE(fs["c"][0].isInt());
+  EXPECT_EQ(static_cast<double>(fs["c"][1]), 99999999999.0);
+  EXPECT_TRUE(fs["d"].isInt());
+  EXPECT_EQ(static_cast<int>(fs["d"]), 2147483647);
+  EXPECT_EQ(static_cast<int>(fs["e"]), -2147483648);
+  EXPECT_EQ(static_cast<int>(fs["f"]), 0x7fffffff);
+  // Strings, comments and keys are left as they are.
+  const std::string text = "s: '4294967306'\nt: x4294967306 # 4294967306\n";
+  EXPECT_EQ(YamlForOpenCv(text, "in.yaml"), "%YAML:1.0\n" + text);
+  // Hexadecimal and octal have no real form to hand over.
+  EXPECT_EQ(ScreenError("a: 1\nb: 0x100000000\n"),
+            "in.yaml:2: integer 0x100000000 is outside the range of int; write it in decimal");
+  EXPECT_NE(ScreenError("b: [077777777777]\n"), "");
+}
+
 }  // namespace
 }  // namespace ieslam
