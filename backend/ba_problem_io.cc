@@ -11,6 +11,7 @@
 
 #include "core/error.h"
 #include "core/file_util.h"
+#include "core/input_file.h"
 
 namespace ieslam {
 namespace {
@@ -163,7 +164,7 @@ void WriteBaProblem(const std::string& path, const StoredBaProblem& stored) {
 }
 
 StoredBaProblem ReadBaProblem(const std::string& path) {
-  RequireFile(path, "bundle-adjustment problem");
+  RequireRegularInputFile(path, "bundle-adjustment problem", kMaxBaProblemBytes);
   std::ifstream in(path);
   if (!in) throw DataError("cannot read " + path);
   StoredBaProblem stored;

@@ -1,7 +1,6 @@
 #include "core/calibration.h"
 
 #include <cmath>
-#include <fstream>
 #include <set>
 #include <sstream>
 #include <vector>
@@ -12,6 +11,7 @@
 
 #include "core/error.h"
 #include "core/file_util.h"
+#include "core/input_file.h"
 #include "core/yaml_text.h"
 
 namespace ieslam {
@@ -183,12 +183,14 @@ void WriteIntrinsics(cv::FileStorage& fs, const PinholeCamera& c) {
   fs << "]";
 }
 
+// A calibration is chosen by the user (--calib or the dataset's), so one that cannot be
+// read is a configuration error (exit 2).
 std::string ReadText(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw ConfigError("calibration file not found or unreadable: " + path);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
+  try {
+    return ReadInputFile(path, "calibration file", kMaxYamlBytes);
+  } catch (const DataError& e) {
+    throw ConfigError(e.what());
+  }
 }
 
 // The rig in an opened calibration file (see ParseCalibration).

@@ -11,6 +11,7 @@
 
 #include "core/error.h"
 #include "core/file_util.h"
+#include "core/input_file.h"
 #include "core/pair_dataset.h"
 #include "core/seven_scenes_dataset.h"
 #include "core/tum_dataset.h"
@@ -25,10 +26,7 @@ std::string SizeString(int width, int height) {
 // Reads an image, telling a missing file from one that does not decode.
 cv::Mat ReadImage(const std::string& path, int flags, const std::string& what, int frame) {
   const std::string prefix = "frame " + std::to_string(frame) + ": ";
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(path, ec)) {
-    throw DataError(prefix + what + " not found: " + path);
-  }
+  RequireRegularInputFile(path, prefix + what);  // a FIFO would block imread forever
   cv::Mat image;
   try {
     image = cv::imread(path, flags);

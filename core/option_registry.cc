@@ -1,12 +1,11 @@
 #include "core/option_registry.h"
 
-#include <filesystem>
-#include <fstream>
 #include <sstream>
 
 #include <opencv2/core.hpp>
 
 #include "core/error.h"
+#include "core/input_file.h"
 #include "core/yaml_text.h"
 
 namespace ieslam {
@@ -26,18 +25,13 @@ OptionText ScalarText(const cv::FileNode& node, const std::string& name) {
 }
 
 std::string ReadConfigText(const std::string& path) {
-  // A config file that is not there or not readable is bad usage (exit 2), as a bad value
-  // in it is.
-  std::error_code ec;
-  if (!std::filesystem::exists(path, ec)) throw ConfigError("config file not found: " + path);
-  if (!std::filesystem::is_regular_file(path, ec)) {
-    throw ConfigError("config file is not a regular file: " + path);
+  // A config file that is not there, not a regular file or not readable is bad usage
+  // (exit 2), as a bad value in it is.
+  try {
+    return ReadInputFile(path, "config file", kMaxYamlBytes);
+  } catch (const DataError& e) {
+    throw ConfigError(e.what());
   }
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw ConfigError("config file cannot be read (permissions?): " + path);
-  std::ostringstream text;
-  text << in.rdbuf();
-  return text.str();
 }
 
 }  // namespace

@@ -14,6 +14,7 @@
 #include "core/calibration.h"
 #include "core/error.h"
 #include "core/file_util.h"
+#include "core/input_file.h"
 
 namespace ieslam {
 namespace {
@@ -23,8 +24,7 @@ constexpr double kFrameRateHz = 30.0;
 // All whitespace-separated numbers of a small text file; DataError naming the file when a
 // token is not a number.
 std::vector<double> ReadNumbers(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw DataError("cannot open " + path);
+  std::istringstream in(ReadInputFile(path, "7-Scenes text file", kMaxSmallTextBytes));
   std::vector<double> values;
   std::string token;
   while (in >> token) {

@@ -8,11 +8,12 @@
 
 #include "core/error.h"
 #include "core/file_util.h"
+#include "core/input_file.h"
 
 namespace ieslam {
 
 std::vector<StampedPath> ReadStampedList(const std::string& list_path) {
-  RequireFile(list_path, "image list");
+  RequireRegularInputFile(list_path, "image list", kMaxListFileBytes);
   std::ifstream in(list_path);
   if (!in) throw DataError("cannot open image list " + list_path);
   return ParseStampedList(in, list_path, std::filesystem::path(list_path).parent_path().string());

@@ -9,6 +9,7 @@
 
 #include "core/error.h"
 #include "core/file_util.h"
+#include "core/input_file.h"
 
 namespace ieslam {
 
@@ -41,7 +42,7 @@ TimedPose ParseTumPoseLine(std::string line, const std::string& where) {
 }
 
 Trajectory ReadTumTrajectory(const std::string& path) {
-  RequireFile(path, "trajectory file");
+  RequireRegularInputFile(path, "trajectory file", kMaxListFileBytes);
   std::ifstream in(path);
   if (!in) throw DataError("cannot open trajectory file " + path);
   return ParseTumTrajectory(in, path);

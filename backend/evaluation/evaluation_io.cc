@@ -10,6 +10,7 @@
 
 #include "core/error.h"
 #include "core/file_util.h"
+#include "core/input_file.h"
 #include "core/json.h"
 
 namespace ieslam {
@@ -35,7 +36,7 @@ void AppendLine(const std::string& key, double value, std::string* out) {
 
 Trajectory ReadTumTrajectoryForEvaluation(const std::string& path,
                                           std::vector<std::string>* warnings) {
-  RequireFile(path, "trajectory file");
+  RequireRegularInputFile(path, "trajectory file", kMaxListFileBytes);
   std::ifstream in(path);
   if (!in) throw DataError("cannot open trajectory file " + path);
   return ParseTumTrajectoryForEvaluation(in, path, warnings);

@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -449,6 +450,42 @@ TEST_F(BadInputTest, NanOrInfInCalibrationIsExit2NamingFileAndKey) {
         Contains(r.output, (dir / "calib.yaml").string() + ": key 'colour.fx' must be finite"))
         << r.output;
   }
+}
+
+// `ieslam args` as RunIeslam, ended after 60 s (exit code 124) should it hang.
+Result RunIeslamWithTimeout(const std::string& args) {
+  Result result;
+  FILE* pipe = popen(("timeout 60 " IESLAM_BINARY " " + args + " 2>&1").c_str(), "r");
+  if (pipe == nullptr) return result;
+  std::array<char, 4096> buffer;
+  size_t n;
+  while ((n = fread(buffer.data(), 1, buffer.size(), pipe)) > 0) {
+    result.output.append(buffer.data(), n);
+  }
+  const int status = pclose(pipe);
+  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return result;
+}
+
+// A FIFO would block the read forever and /dev/zero never ends; a calibration nested
+// 50 000 deep overflowed OpenCV's recursive parser (exit 139).
+TEST_F(BadInputTest, CalibrationThatIsAFifoOrNestedTooDeepIsExit2NamingIt) {
+  const std::string common = "run --dataset " + ListsOnly("calib_kinds").string() + " --output " +
+                             (root_ / "o10").string() + " --calib ";
+  const std::string fifo = (root_ / "calib.fifo").string();
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  Result r = RunIeslamWithTimeout(common + fifo);
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_TRUE(Contains(r.output, "calibration file is not a regular file: " + fifo)) << r.output;
+  r = RunIeslamWithTimeout(common + "/dev/zero");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_TRUE(Contains(r.output, "calibration file is not a regular file: /dev/zero")) << r.output;
+  const fs::path deep = root_ / "deep.yaml";
+  WriteFile(deep, "%YAML:1.0\n---\na: " + std::string(50000, '['));
+  r = RunIeslamWithTimeout(common + deep.string());
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_TRUE(Contains(r.output, deep.string() + ":3: nesting deeper than 64 levels")) << r.output;
+  EXPECT_FALSE(fs::exists(root_ / "o10" / "report.json"));
 }
 
 TEST_F(BadInputTest, OutOfRangeOptionsAreExit2NamingTheFlag) {
