@@ -40,10 +40,22 @@ class Section {
     return Section(n, prefix_ + key + ".", source_);
   }
   double Number(const std::string& key) const { return ToNumber(Get(key), key); }
-  int Integer(const std::string& key) const {
+  // An integer in [min, max] (checked before it is narrowed to int).
+  int Integer(const std::string& key, int min, int max) const {
     const double v = Number(key);
-    if (v != std::floor(v) || std::fabs(v) > 1e9) Fail(key, "must be an integer, got " + Str(v));
+    if (v != std::floor(v)) Fail(key, "must be an integer, got " + Str(v));
+    InRange(key, v, min, max);
     return static_cast<int>(v);
+  }
+  // Fails naming `key` unless min <= value <= max.
+  void InRange(const std::string& key, double value, double min, double max) const {
+    if (!(value >= min && value <= max)) {
+      std::ostringstream range;
+      range << "must be in [" << min << ", " << max << "], got ";
+      range.precision(15);  // enough to tell the value, short enough to read
+      range << value;
+      Fail(key, range.str());
+    }
   }
   std::string String(const std::string& key) const {
     cv::FileNode n = Get(key);
@@ -91,16 +103,67 @@ class Section {
   const std::string* source_;
 };
 
+// Fails naming the distortion key unless the lens model maps the image one-to-one: seen
+// from the principal point, the distorted position must move outwards all the way to each
+// corner and edge midpoint, and undistorting that pixel must come back to it. Otherwise
+// points are lifted onto wrong rays and the estimator's equations become singular.
+void CheckDistortionInvertible(const Section& s, const PinholeCamera& c) {
+  if (!c.HasDistortion()) return;
+  for (const double u : {0.0, c.cx, static_cast<double>(c.width)}) {
+    for (const double v : {0.0, c.cy, static_cast<double>(c.height)}) {
+      if (u == c.cx && v == c.cy) continue;
+      const Eigen::Vector2d distorted((u - c.cx) / c.fx, (v - c.cy) / c.fy);
+      const Eigen::Vector2d ray = c.Undistort(distorted);
+      const std::string pixel = "(" + std::to_string(static_cast<int>(u)) + ", " +
+                                std::to_string(static_cast<int>(v)) + ")";
+      // Undistort is exact to ~1e-12 where the model inverts; 1e-6 is ~1e-3 pixels.
+      if (!ray.allFinite() || (c.Distort(ray) - distorted).norm() > 1e-6) {
+        s.Fail("distortion", "does not invert at pixel " + pixel + " (no lens distorts so)");
+      }
+      const Eigen::Vector2d outwards = distorted.normalized();
+      double previous = 0.0;
+      constexpr int kSteps = 100;
+      for (int i = 1; i <= kSteps; ++i) {
+        const double along = c.Distort(ray * (static_cast<double>(i) / kSteps)).dot(outwards);
+        if (!(along > previous)) {
+          s.Fail("distortion", "folds the image over between the principal point and pixel " +
+                                   pixel + " (no lens distorts so)");
+        }
+        previous = along;
+      }
+    }
+  }
+}
+
 PinholeCamera ReadIntrinsics(const Section& s) {
   PinholeCamera camera;
-  camera.width = s.Integer("width");
-  camera.height = s.Integer("height");
+  // No depth or colour sensor has a side over 65536 pixels.
+  camera.width = s.Integer("width", 1, 65536);
+  camera.height = s.Integer("height", 1, 65536);
+  // A focal length of 0.05 sides is a 169 degree field of view, wider than a pinhole model
+  // with this distortion can describe; 100 sides is 0.6 degrees, a telescope.
   camera.fx = s.Number("fx");
+  s.InRange("fx", camera.fx, 0.05 * camera.width, 100.0 * camera.width);
   camera.fy = s.Number("fy");
+  s.InRange("fy", camera.fy, 0.05 * camera.height, 100.0 * camera.height);
+  // The optical axis of a real camera meets the sensor, near its centre.
   camera.cx = s.Number("cx");
+  s.InRange("cx", camera.cx, 0.0, camera.width);
   camera.cy = s.Number("cy");
+  s.InRange("cy", camera.cy, 0.0, camera.height);
   const std::vector<double> d = s.Numbers("distortion", 5);
+  // Fitted lens coefficients are of order 1 (the TUM Kinect's reach 1.16), tangential ones
+  // of order 0.01; these bounds are ten to a hundred times that.
+  const double bounds[] = {100.0, 100.0, 1.0, 1.0, 100.0};
+  for (int i = 0; i < 5; ++i) {
+    if (!(std::fabs(d[i]) <= bounds[i])) {
+      s.Fail("distortion",
+             "coefficient " + std::to_string(i + 1) + " (k1, k2, p1, p2, k3) must be within +-" +
+                 std::to_string(static_cast<int>(bounds[i])) + ", got " + std::to_string(d[i]));
+    }
+  }
   std::copy(d.begin(), d.end(), camera.distortion.begin());
+  CheckDistortionInvertible(s, camera);
   return camera;
 }
 
@@ -128,6 +191,8 @@ RangeImager ReadRange(const Section& s, const PinholeCamera& colour, bool regist
     range.camera = colour;
   }
   range.depth_scale = s.Number("depth_scale");
+  // A raw unit between a micrometre and a metre: 16 bits then span 6.5 cm to 65 km.
+  s.InRange("depth_scale", range.depth_scale, 1e-6, 1.0);
   const std::string kind = s.String("depth_kind");
   if (kind == "z") {
     range.depth_kind = DepthKind::kZ;
@@ -145,11 +210,23 @@ RangeImager ReadRange(const Section& s, const PinholeCamera& colour, bool regist
   }
   range.min_range_m = s.Number("min_range_m");
   range.max_range_m = s.Number("max_range_m");
+  // No range imager this pipeline models measures a kilometre.
+  s.InRange("max_range_m", range.max_range_m, 0.0, 1000.0);
   const Section noise = s.Map("noise");
   noise.OnlyKeys({"a", "b", "c"});
+  // A sigma of a metre at a metre of range carries no information.
   range.noise.a = noise.Number("a");
+  noise.InRange("a", range.noise.a, 0.0, 1.0);
   range.noise.b = noise.Number("b");
+  noise.InRange("b", range.noise.b, 0.0, 1.0);
   range.noise.c = noise.Number("c");
+  noise.InRange("c", range.noise.c, 0.0, 1.0);
+  // No range imager measures to better than 10 micrometres, and a smaller sigma would make
+  // weights (1/sigma^2) that swamp every other term of the estimator.
+  if (range.min_range_m >= 0.0 && range.noise.Sigma(range.min_range_m) < 1e-5) {
+    s.Fail("noise", "must give a sigma of at least 1e-05 m at min_range_m, got " +
+                        std::to_string(range.noise.Sigma(range.min_range_m)));
+  }
   return range;
 }
 
@@ -202,16 +279,22 @@ Rig RigFromYaml(const cv::FileStorage& fs, const std::string& source) {
 
   Rig rig;
   rig.name = root.String("name");
-  const int registered = root.Integer("registered");
-  if (registered != 0 && registered != 1) root.Fail("registered", "must be 0 or 1");
-  rig.registered = registered == 1;
+  rig.registered = root.Integer("registered", 0, 1) == 1;
   rig.pixel_sigma = root.Number("pixel_sigma");
+  // No detector locates a keypoint to a hundredth of a pixel, and one 100 pixels off is no
+  // measurement.
+  root.InRange("pixel_sigma", rig.pixel_sigma, 0.01, 100.0);
   const Section colour = root.Map("colour");
   colour.OnlyKeys({std::begin(kIntrinsicKeys), std::end(kIntrinsicKeys)});
   rig.colour = ReadIntrinsics(colour);
   rig.range = ReadRange(root.Map("range"), rig.colour, rig.registered);
   if (!rig.registered || root.Has("T_colour_range")) {
     rig.T_colour_range = ReadExtrinsics(root);
+    // The two sensors of a rig sit centimetres apart.
+    if (!(rig.T_colour_range.translation().norm() <= 10.0)) {
+      root.Fail("T_colour_range", "must move the range imager by at most 10 m, got " +
+                                      std::to_string(rig.T_colour_range.translation().norm()));
+    }
     if (rig.registered && !rig.T_colour_range.isApprox(Eigen::Isometry3d::Identity(), 1e-12)) {
       root.Fail("T_colour_range", "must be the identity when registered: 1 (or be omitted)");
     }

@@ -39,7 +39,9 @@ namespace ieslam {
 
 // Reads and validates (Rig::Check) a calibration file. Throws ConfigError naming the file
 // and the key for a missing file, a YAML syntax error, a missing or unknown key, a value of
-// the wrong type, NaN/inf, or a rig that fails Rig::Check. The extrinsic rotation is
+// the wrong type, NaN/inf, a value outside its physical range (focal length, principal
+// point, a distortion that does not map the image one-to-one, depth scale, noise; each
+// bound is argued in calibration.cc), or a rig that fails Rig::Check. The extrinsic rotation is
 // projected onto the nearest rotation (files carry a few decimals).
 Rig ReadCalibration(const std::string& path);
 

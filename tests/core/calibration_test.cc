@@ -203,6 +203,60 @@ TEST_F(CalibrationFileTest, ValuesRigCheckRejectsRaiseConfigError) {
   }
 }
 
+// Values that read as numbers but describe no camera (fx 1e300, a lens that folds the image
+// over) used to pass and end far downstream as a singular information matrix naming
+// neither the file nor the key.
+TEST_F(CalibrationFileTest, PhysicallyImpossibleValuesRaiseConfigErrorNamingFileAndKey) {
+  const char kColourDistortion[] = "distortion: [-0.2, 0.12, 0.001, -0.002, 0.01]";
+  const BadCase cases[] = {
+      {"fx: 1290.0", "fx: 1e300", "colour.fx"},
+      {"fx: 1290.0", "fx: 10.0", "colour.fx"},
+      {"fy: 201.0", "fy: 1e9", "range.fy"},
+      {"  cx: 511.5", "  cx: -5", "colour.cx"},
+      {"  cy: 71.5", "  cy: 145", "range.cy"},
+      {"  height: 768", "  height: 3000000000", "colour.height"},
+      {kColourDistortion, "distortion: [-0.2, 0.12, 0.001, -0.002, 1e6]", "colour.distortion"},
+      {kColourDistortion, "distortion: [0, 0, 5, 0, 0]", "colour.distortion"},
+      {kColourDistortion, "distortion: [-5, 0, 0, 0, 0]", "colour.distortion"},   // folds over
+      {kColourDistortion, "distortion: [0, 0, 0, 0, -60]", "colour.distortion"},  // folds over
+      {"depth_scale: 0.001", "depth_scale: 1e300", "range.depth_scale"},
+      {"max_range_m: 7.5", "max_range_m: 1e9", "range.max_range_m"},
+      {"noise: {a: 0.005, b: 0.01,", "noise: {a: 1e-300, b: 0.0,", "range.noise"},
+      {"noise: {a: 0.005,", "noise: {a: 1e300,", "range.noise.a"},
+      {"pixel_sigma: 0.8", "pixel_sigma: 1e-300", "pixel_sigma"},
+      {"0, 1, 0, -0.045", "0, 1, 0, -4500", "T_colour_range"},
+  };
+  for (const BadCase& c : cases) {
+    const std::string path = Write("bad.yaml", Replace(kTwoCameras, c.from, c.to));
+    try {
+      ReadCalibration(path);
+      ADD_FAILURE() << "no ConfigError for " << c.to;
+    } catch (const ConfigError& e) {
+      const std::string message = e.what();
+      EXPECT_NE(message.find(path + ": key '" + c.key_in_message + "'"), std::string::npos)
+          << message;
+    }
+  }
+  try {
+    ReadCalibration(Write("fx.yaml", Replace(kTwoCameras, "fx: 1290.0", "fx: 1e300")));
+    FAIL() << "accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("key 'colour.fx' must be in [51.2, 102400], got 1e+300"),
+              std::string::npos)
+        << e.what();
+  }
+  // OpenCV alone would read 3000000000 as -1294967296.
+  try {
+    ReadCalibration(Write("w.yaml", Replace(kTwoCameras, "  width: 1024", "  width: 3000000000")));
+    FAIL() << "accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(
+        std::string(e.what()).find("key 'colour.width' must be in [1, 65536], got 3000000000"),
+        std::string::npos)
+        << e.what();
+  }
+}
+
 TEST_F(CalibrationFileTest, MissingOrUnparsableFileRaisesConfigError) {
   const std::string missing = (dir_ / "nope.yaml").string();
   EXPECT_THROW(
@@ -301,6 +355,12 @@ TEST(ShippedCalibration, SwissRangerPackageLooksLikeThePapers) {
   EXPECT_LT((R.transpose() * R - Eigen::Matrix3d::Identity()).norm(), 1e-14);
   // The range imager sees a little more than the camera (paper §III).
   EXPECT_GT(rig.range.camera.width / rig.range.camera.fx, rig.colour.width / rig.colour.fx);
+}
+
+TEST(ShippedCalibration, EveryShippedFilePassesThePhysicalRanges) {
+  for (const char* name : {"tum_fr1", "tum_fr2", "tum_fr3", "7scenes", "sr3000_dragonfly2"}) {
+    EXPECT_NO_THROW(ReadCalibration(DefaultCalibrationPath(name))) << name;
+  }
 }
 
 TEST(ShippedCalibration, DefaultPathPointsIntoDataCalib) {

@@ -15,8 +15,14 @@ namespace {
 TEST_F(DatasetFilesTest, PairDatasetReadsTwoCamerasAtTheirOwnSizes) {
   Rig rig = ReadCalibration(DefaultCalibrationPath("sr3000_dragonfly2"));
   rig.name = "small_pair";
+  // The 1024x768 camera scaled down 16 times: calibrations must keep the principal point
+  // inside the image.
   rig.colour.width = 64;
   rig.colour.height = 48;
+  rig.colour.fx /= 16.0;
+  rig.colour.fy /= 16.0;
+  rig.colour.cx = 31.5;
+  rig.colour.cy = 23.5;
   WriteCalibration(Path("calib.yaml"), rig);
   WriteImage("c/0.png", Colour(64, 48));
   WriteImage("c/1.png", Colour(64, 48));
