@@ -63,8 +63,10 @@ size_t ScreenInteger(const std::string& line, size_t i, size_t offset, const std
   return end;
 }
 
-// One line's nesting and integers outside quoted strings and comments. `offset` is the
-// line's position in the text.
+// One line's nesting and integers outside quoted strings and comments. As in OpenCV, a
+// `[`, `{`, quote or number means something only where a value starts: after `: `, after a
+// line's `- ` entries, and inside a flow collection after `[`, `{` or `,`; elsewhere it is
+// part of a plain string (`name: run [1` is one). `offset` is the line's position in the text.
 void ScreenLine(const std::string& line, size_t offset, const std::string& where, Nesting* nesting,
                 std::vector<size_t>* reals) {
   size_t i = line.find_first_not_of(' ');
@@ -77,24 +79,32 @@ void ScreenLine(const std::string& line, size_t offset, const std::string& where
       nesting->Block(i, where);
     }
   }
+  char last = ':';  // the last character outside spaces; a line starts a key or a value
   while (i < line.size()) {
     const char c = line[i];
-    const bool token_start = i == 0 || std::strchr(" \t,[{", line[i - 1]) != nullptr;
-    if (token_start && c == '#') return;
-    if (token_start && (c == '\'' || c == '"')) {
+    if (c == ' ' || c == '\t') {
+      ++i;
+      continue;
+    }
+    if (c == '#' && i > 0 && (line[i - 1] == ' ' || line[i - 1] == '\t')) return;
+    const bool value_start =
+        last == ':' || (nesting->flow_depth > 0 && std::strchr("[{,", last) != nullptr);
+    last = c;
+    if (value_start && (c == '\'' || c == '"')) {
       size_t j = i + 1;
       while (j < line.size() && line[j] != c) j += c == '"' && line[j] == '\\' ? 2 : 1;
       i = j + 1;
       continue;
     }
-    if (c == '[' || c == '{') {
+    if (value_start && (c == '[' || c == '{')) {
       ++nesting->flow_depth;
       nesting->Check(where);
     } else if ((c == ']' || c == '}') && nesting->flow_depth > 0) {
       --nesting->flow_depth;
-    } else if (token_start && (IsDigit(c) || ((c == '+' || c == '-') && i + 1 < line.size() &&
+    } else if (value_start && (IsDigit(c) || ((c == '+' || c == '-') && i + 1 < line.size() &&
                                               IsDigit(line[i + 1])))) {
       i = ScreenInteger(line, i, offset, where, reals);
+      last = line[i - 1];
       continue;
     }
     ++i;

@@ -133,8 +133,13 @@ TEST(YamlForOpenCv, IntegersOutsideIntReachTheReaderAsRealsNotWrapped) {
   EXPECT_EQ(static_cast<int>(fs["d"]), 2147483647);
   EXPECT_EQ(static_cast<int>(fs["e"]), -2147483648);
   EXPECT_EQ(static_cast<int>(fs["f"]), 0x7fffffff);
+  const cv::FileStorage entries =
+      OpenYamlMap("a:\n  - 4294967306\n  - [1, {b: 4294967306}]\n", "in.yaml");
+  EXPECT_EQ(static_cast<double>(entries["a"][0]), 4294967306.0);
+  EXPECT_EQ(static_cast<double>(entries["a"][1][1]["b"]), 4294967306.0);
   // Strings, comments and keys are left as they are.
-  const std::string text = "s: '4294967306'\nt: x4294967306 # 4294967306\n";
+  const std::string text =
+      "s: '4294967306'\nt: x4294967306 # 4294967306\nu: run 4294967306\nv: a[b, 4294967306\n";
   EXPECT_EQ(YamlForOpenCv(text, "in.yaml"), "%YAML:1.0\n" + text);
   // Hexadecimal and octal have no real form to hand over.
   EXPECT_EQ(ScreenError("a: 1\nb: 0x100000000\n"),
