@@ -1,14 +1,18 @@
 #include "apps/app_util.h"
 
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <iostream>
 #include <system_error>
 
+#include <fcntl.h>
 #include <unistd.h>
 
 #include "apps/option_flags.h"
 #include "core/error.h"
+#include "core/file_util.h"
 #include "core/stopwatch.h"
 
 namespace ieslam {
@@ -17,9 +21,18 @@ void PrepareOutputDirectory(const std::string& path) {
   std::error_code ec;
   std::filesystem::create_directories(path, ec);
   if (ec || !std::filesystem::is_directory(path)) {
-    throw ConfigError("cannot create output directory " + path +
+    throw OutputError("cannot create output directory " + path +
                       (ec ? ": " + ec.message() : std::string(": a file is in the way")));
   }
+  // A file made and removed: so that an unwritable directory stops the command before its
+  // work rather than after it.
+  const std::string probe = JoinPath(path, ".ieslam_write_test.tmp." + std::to_string(::getpid()));
+  const int fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  if (fd < 0) {
+    throw OutputError("cannot write into output directory " + path + ": " + std::strerror(errno));
+  }
+  ::close(fd);
+  ::unlink(probe.c_str());
 }
 
 namespace {

@@ -1,10 +1,12 @@
 // `ieslam refine`: batch refinement of an earlier run without re-running the front end and
 // the filter. Reads RUN/ba_problem.txt (written by every `ieslam run` with a filter), bundle-
-// adjusts it and writes OUT/refined.tum and OUT/report.json. With --dataset (the run's),
-// the selected frames' range images are read again and aligned pairwise in the refinement,
-// as `ieslam run --refine` does.
+// adjusts it and writes OUT/refined.tum and OUT/report.json (OUT/refine_report.json when OUT
+// is the run's directory: the run's report stays). A failed refinement writes nothing. With
+// --dataset (the run's), the selected frames' range images are read again and aligned
+// pairwise in the refinement, as `ieslam run --refine` does.
 #include <algorithm>
 #include <cstdio>
+#include <filesystem>
 #include <iostream>
 
 #include "apps/app_util.h"
@@ -63,13 +65,13 @@ StoredRefinementOptions RefineOptionsFromFlags(const Flags& flags, RunOptions* c
 int RefineCommand(const CommandArgs& args) {
   const Flags flags(args, kRefineFlags);
   if (flags.help()) {
-    std::cout << FormatHelp(
-        "refine", "--run DIR --output OUT [flags]",
-        "Bundle-adjusts the keyframes and features of an earlier run\n"
-        "(DIR/ba_problem.txt) and writes refined.tum and report.json into OUT.\n"
-        "With --dataset, the selected frames' range images are aligned\n"
-        "pairwise in the refinement (as `ieslam run --refine`).",
-        kRefineFlags);
+    std::cout << FormatHelp("refine", "--run DIR --output OUT [flags]",
+                            "Bundle-adjusts the keyframes and features of an earlier run\n"
+                            "(DIR/ba_problem.txt) and writes refined.tum and report.json into OUT\n"
+                            "(refine_report.json when OUT is DIR: the run's report.json stays).\n"
+                            "With --dataset, the selected frames' range images are aligned\n"
+                            "pairwise in the refinement (as `ieslam run --refine`).",
+                            kRefineFlags);
     return 0;
   }
   RunOptions config;
@@ -83,13 +85,21 @@ int RefineCommand(const CommandArgs& args) {
     dataset_options.calib_file = flags.GetString("calib", dataset_options.calib_file);
     dataset = OpenDataset(flags.Require("dataset"), dataset_options);
   }
+  PrepareOutputDirectory(out);
+  // Into the run's own directory the report goes beside the run's, which it must not replace.
+  std::error_code ec;
+  const bool into_run = std::filesystem::equivalent(run, out, ec);
+  const std::string report_name = into_run ? "refine_report.json" : "report.json";
   const StoredRefinement refined = RefineStoredRun(run, dataset.get(), options);
   for (const std::string& warning : refined.warnings) PrintWarning("refine", warning);
-  PrepareOutputDirectory(out);
+  // The report is the set's commit point: gone while refined.tum is replaced, written last.
+  RemoveStaleTempFiles(out, {"refined.tum", report_name});
+  std::filesystem::remove(JoinPath(out, report_name), ec);
+  if (ec) throw OutputError("cannot remove " + JoinPath(out, report_name) + ": " + ec.message());
   WriteTumTrajectory(JoinPath(out, "refined.tum"), refined.refined,
                      "ieslam bundle-adjusted keyframes");
   const Json report = StoredRefinementReport(run, flags.GetString("dataset", ""), options, refined);
-  WriteTextAtomically(JoinPath(out, "report.json"), report.Dump() + "\n");
+  WriteTextAtomically(JoinPath(out, report_name), report.Dump() + "\n");
   const BundleAdjustmentProblem& problem = refined.stored.problem;
   std::printf("refine: %zu poses, %zu features, %zu observations, %.2f s\n", problem.T_w_c.size(),
               problem.p_w.size(), problem.observations.size(), refined.refinement.seconds);

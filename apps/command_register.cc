@@ -91,7 +91,7 @@ int RegisterCommand(const CommandArgs& args) {
   if (report.interrupted) {
     std::fprintf(stderr, "register: interrupted after %zu pairs; register.json covers those\n",
                  report.pairs.size());
-    return 130;
+    return interrupt.exit_code();
   }
   return 0;
 }

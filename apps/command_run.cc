@@ -56,7 +56,7 @@ void PrintSummary(const Dataset& dataset, const RunOptions& options, const RunRe
   if (run.ate_keyframes_m >= 0.0) {
     std::printf("run: ATE RMSE keyframes %.4f m, all frames %.4f m\n", run.ate_keyframes_m,
                 run.ate_trajectory_m);
-    if (options.pipeline.refine) {
+    if (run.refined()) {
       std::printf("run: ATE RMSE refined keyframes %.4f m\n", run.ate_refined_m);
     }
   }
@@ -93,23 +93,25 @@ int RunCommand(const CommandArgs& args) {
     };
   }
   RunResult run;
+  int exit_code = 0;
   {
-    // The run stops at the next frame boundary and still writes its outputs.
+    // The run stops at the next frame boundary (or in its refinement or map) and still
+    // writes its outputs.
     const StopOnInterrupt interrupt;
     hooks.stop = interrupt.Poll();
     run = RunOnDataset(*dataset, options, hooks);
     progress.Finish();
     WarnAboutSkippedFrames("run", run.frames_skipped);
     for (const std::string& warning : run.warnings) PrintWarning("run", warning);
-    WriteRunOutputs(output, *dataset, options, run);
+    WriteRunOutputs(output, *dataset, options, run, interrupt.Poll());
+    exit_code = interrupt.exit_code();
   }
   PrintSummary(*dataset, options, run, output);
-  if (run.interrupted()) {
+  if (exit_code != 0) {
     std::fprintf(stderr, "run: interrupted after %d of %d frames; outputs cover those frames\n",
                  run.frames_processed(), dataset->size());
-    return 130;
   }
-  return 0;
+  return exit_code;
 }
 
 }  // namespace ieslam

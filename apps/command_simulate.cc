@@ -97,7 +97,7 @@ int SimulateCommand(const CommandArgs& args) {
     std::fprintf(stderr,
                  "simulate: interrupted; the table has %zu of %d rows over %d of %d run(s)\n",
                  study.rows.size(), rows, study.runs_done, options.runs);
-    return 130;
+    return interrupt.exit_code();
   }
   return 0;
 }

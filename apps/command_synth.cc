@@ -44,7 +44,7 @@ int SynthCommand(const CommandArgs& args) {
   if (frames < options.frames) {
     std::cerr << "synth: interrupted after " << frames << " of " << options.frames
               << " frames; the dataset holds those\n";
-    return 130;
+    return interrupt.exit_code();
   }
   return 0;
 }

@@ -5,26 +5,34 @@
 
 #include <unistd.h>
 
+#include "core/file_util.h"
+
 namespace ieslam {
 namespace {
 
 // A signal handler can reach only globals; lock-free atomics are safe to use from one.
 std::atomic<bool> g_stop_on_interrupt{false};
-std::atomic<bool> g_interrupted{false};
-static_assert(std::atomic<bool>::is_always_lock_free, "a signal handler needs a lock-free flag");
+std::atomic<int> g_signal{0};  // the first SIGINT or SIGTERM under a StopOnInterrupt; 0: none
+static_assert(std::atomic<int>::is_always_lock_free, "a signal handler needs a lock-free flag");
 
-extern "C" void OnInterrupt(int) {
-  // The first SIGINT under a StopOnInterrupt asks the command to stop; any other ends it.
-  if (g_stop_on_interrupt.load() && !g_interrupted.exchange(true)) return;
-  _exit(130);  // async-signal-safe, unlike exit()
+extern "C" void OnInterrupt(int signal) {
+  // The first signal under a StopOnInterrupt asks the command to stop; any other ends it,
+  // without the temp files of the writes it cuts short.
+  int none = 0;
+  if (g_stop_on_interrupt.load() && g_signal.compare_exchange_strong(none, signal)) return;
+  RemoveTempFilesInProgress();
+  _exit(128 + signal);  // async-signal-safe, unlike exit()
 }
 
 void InstallHandler() {
   struct sigaction action = {};
   action.sa_handler = OnInterrupt;
   sigemptyset(&action.sa_mask);
+  sigaddset(&action.sa_mask, SIGINT);
+  sigaddset(&action.sa_mask, SIGTERM);
   action.sa_flags = SA_RESTART;  // reads and writes in progress carry on
   sigaction(SIGINT, &action, nullptr);
+  sigaction(SIGTERM, &action, nullptr);
 }
 
 }  // namespace
@@ -35,17 +43,22 @@ void ExitOnInterrupt() {
 }
 
 StopOnInterrupt::StopOnInterrupt() {
-  g_interrupted.store(false);
+  g_signal.store(0);
   g_stop_on_interrupt.store(true);
   InstallHandler();
 }
 
 StopOnInterrupt::~StopOnInterrupt() { ExitOnInterrupt(); }
 
-bool StopOnInterrupt::requested() const { return g_interrupted.load(); }
+bool StopOnInterrupt::requested() const { return g_signal.load() != 0; }
+
+int StopOnInterrupt::exit_code() const {
+  const int signal = g_signal.load();
+  return signal == 0 ? 0 : 128 + signal;
+}
 
 std::function<bool()> StopOnInterrupt::Poll() const {
-  return [] { return g_interrupted.load(); };
+  return [] { return g_signal.load() != 0; };
 }
 
 }  // namespace ieslam

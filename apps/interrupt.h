@@ -1,20 +1,22 @@
-// Ctrl-C for every subcommand: exit code 130, and the outputs of what was processed still
-// written.
+// Ctrl-C (SIGINT) and SIGTERM (what batch schedulers send) for every subcommand: exit code
+// 128 + the signal (130 for SIGINT, 143 for SIGTERM), and the outputs of what was processed
+// still written.
 //
-// By default (ExitOnInterrupt, installed by main) SIGINT ends the process at once with exit
-// code 130: the command has nothing partial worth writing, and as outputs are written
-// atomically (temp file + rename) none is left half-written.
+// By default (ExitOnInterrupt, installed by main) either signal ends the process at once: the
+// command has nothing partial worth writing; outputs are written atomically (temp file +
+// rename), and the temp files of the writes in progress are removed, so none is left
+// half-written or behind.
 // A command that can stop early and still write what it has done (run, simulate, register,
-// synth) holds a StopOnInterrupt while it works: the first SIGINT then only sets a flag that
-// the command polls between frames, pairs or rows; a second one ends the process at once as
-// above, for a user who does not want to wait.
+// synth) holds a StopOnInterrupt while it works: the first signal then only sets a flag that
+// the command polls between frames, pairs or rows (and run in its refinement and map); a
+// second one ends the process at once as above, for a user who does not want to wait.
 #pragma once
 
 #include <functional>
 
 namespace ieslam {
 
-// Installs the default: SIGINT exits with code 130.
+// Installs the default: SIGINT and SIGTERM exit with code 128 + the signal.
 void ExitOnInterrupt();
 
 class StopOnInterrupt {
@@ -24,8 +26,10 @@ class StopOnInterrupt {
   StopOnInterrupt(const StopOnInterrupt&) = delete;
   StopOnInterrupt& operator=(const StopOnInterrupt&) = delete;
 
-  // True once SIGINT has arrived.
+  // True once SIGINT or SIGTERM has arrived.
   bool requested() const;
+  // 128 + the signal that arrived first (130 SIGINT, 143 SIGTERM); 0 before one arrived.
+  int exit_code() const;
   // requested() as the polled callback the libraries take.
   std::function<bool()> Poll() const;
 };

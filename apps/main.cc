@@ -22,7 +22,8 @@ void PrintUsage(std::ostream& out) {
     name.resize(10, ' ');
     out << "  " << name << command.summary << "\n";
   }
-  out << "\nExit codes: 0 success, 2 bad usage or config, 3 bad input data, 130 interrupted.\n";
+  out << "\nExit codes: 0 success, 2 bad usage or config, 3 bad input data, 4 output not\n"
+         "writable, 130 interrupted (143 for SIGTERM).\n";
 }
 
 int Main(int argc, char** argv) {
@@ -50,6 +51,9 @@ int Main(int argc, char** argv) {
     } catch (const DataError& e) {
       std::cerr << "ieslam " << name << ": " << e.what() << "\n";
       return 3;
+    } catch (const OutputError& e) {
+      std::cerr << "ieslam " << name << ": " << e.what() << "\n";
+      return 4;
     }
   }
   std::cerr << "ieslam: unknown command '" << name << "'\n\n";

@@ -17,7 +17,8 @@ namespace ieslam {
 namespace {
 
 constexpr const char* kMagic = "ieslam_ba_problem";
-constexpr int kVersion = 1;
+constexpr int kVersion = 2;
+constexpr const char* kEnd = "end";
 
 // Exactly representable: 17 significant digits round-trip every double.
 std::string Exact(double value) {
@@ -104,8 +105,10 @@ void ReadFeature(LineReader* read, BundleAdjustmentProblem* p) {
   }
 }
 
-// `obs <frame> <feature id> <u v d> <Q00 Q01 Q02 Q11 Q12 Q22>`.
-void ReadObservation(LineReader* read, BundleAdjustmentProblem* p) {
+// `obs <frame> <feature id> <u v d> <Q00 Q01 Q02 Q11 Q12 Q22>`. Undistorted pixels may lie
+// a little outside the image; one farther out than the image's own size, or a range d <= 0, is
+// no measurement the front end makes (it would decide the solve alone).
+void ReadObservation(LineReader* read, const PinholeCamera& camera, BundleAdjustmentProblem* p) {
   BundleAdjustmentObservation o;
   o.frame_id = static_cast<int>(read->Integer("frame"));
   o.observation.feature_id = read->Integer("feature id");
@@ -114,7 +117,16 @@ void ReadObservation(LineReader* read, BundleAdjustmentProblem* p) {
                     std::to_string(o.frame_id) + " or feature " +
                     std::to_string(o.observation.feature_id) + " (poses and features come first)");
   }
-  for (int r = 0; r < 3; ++r) o.observation.z(r) = read->Number("measurement");
+  Eigen::Vector3d& z = o.observation.z;
+  for (int r = 0; r < 3; ++r) z(r) = read->Number("measurement");
+  if (z(0) < -camera.width || z(0) > 2.0 * camera.width || z(1) < -camera.height ||
+      z(1) > 2.0 * camera.height) {
+    throw DataError(read->where() + ": observation (u, v) = (" + Exact(z(0)) + ", " + Exact(z(1)) +
+                    ") lies farther outside the " + std::to_string(camera.width) + "x" +
+                    std::to_string(camera.height) + " image than its size");
+  }
+  if (z(2) <= 0.0)
+    throw DataError(read->where() + ": observation range d = " + Exact(z(2)) + " <= 0");
   for (int r = 0; r < 3; ++r) {
     for (int k = r; k < 3; ++k) o.observation.Q(r, k) = o.observation.Q(k, r) = read->Number("Q");
   }
@@ -132,7 +144,8 @@ void WriteBaProblem(const std::string& path, const StoredBaProblem& stored) {
     out << "# ieslam bundle-adjustment problem: the selected poses (T_w_c), the features and the\n"
            "# observations (u v d, undistorted) with their covariance Q that the filter used.\n"
            "# Refine it with: ieslam refine --run <this run's directory> --output OUT\n";
-    out << kMagic << ' ' << kVersion << '\n';
+    out << kMagic << ' ' << kVersion << ' ' << p.T_w_c.size() << ' ' << p.p_w.size() << ' '
+        << p.observations.size() << '\n';
     const PinholeCamera& c = stored.camera;
     out << "camera " << c.width << ' ' << c.height << ' ' << Exact(c.fx) << ' ' << Exact(c.fy)
         << ' ' << Exact(c.cx) << ' ' << Exact(c.cy) << '\n';
@@ -160,6 +173,7 @@ void WriteBaProblem(const std::string& path, const StoredBaProblem& stored) {
       }
       out << '\n';
     }
+    out << kEnd << '\n';
   });
 }
 
@@ -169,7 +183,8 @@ StoredBaProblem ReadBaProblem(const std::string& path) {
   if (!in) throw DataError("cannot read " + path);
   StoredBaProblem stored;
   BundleAdjustmentProblem& p = stored.problem;
-  bool header = false, camera = false;
+  bool header = false, camera = false, end = false;
+  int64_t poses = 0, features = 0, observations = 0;  // as the header counts them
   std::string line;
   for (int number = 1; std::getline(in, line); ++number) {
     if (line.empty() || line[0] == '#') continue;
@@ -177,11 +192,21 @@ StoredBaProblem ReadBaProblem(const std::string& path) {
     std::string record;
     fields >> record;
     LineReader read(&fields, path + ":" + std::to_string(number));
+    if (end) throw DataError(read.where() + ": '" + record + "' after the end line");
     if (!header) {
       if (record != kMagic)
         throw DataError(read.where() + ": not an ieslam bundle-adjustment problem");
-      if (read.Integer("version") != kVersion)
-        throw DataError(read.where() + ": unsupported version");
+      const int64_t version = read.Integer("version");
+      if (version < kVersion) {
+        throw DataError(read.where() + ": format version " + std::to_string(version) +
+                        ", written by an older ieslam (this one reads version " +
+                        std::to_string(kVersion) + "); re-run `ieslam run` to write it again");
+      }
+      if (version != kVersion)
+        throw DataError(read.where() + ": unsupported version " + std::to_string(version));
+      poses = read.Integer("pose count");
+      features = read.Integer("feature count");
+      observations = read.Integer("observation count");
       header = true;
     } else if (record == "camera") {
       ReadCamera(&read, &stored.camera);
@@ -193,7 +218,10 @@ StoredBaProblem ReadBaProblem(const std::string& path) {
     } else if (record == "feature") {
       ReadFeature(&read, &p);
     } else if (record == "obs") {
-      ReadObservation(&read, &p);
+      if (!camera) throw DataError(read.where() + ": observation before the camera line");
+      ReadObservation(&read, stored.camera, &p);
+    } else if (record == kEnd) {
+      end = true;
     } else {
       throw DataError(read.where() + ": unknown record '" + record + "'");
     }
@@ -203,6 +231,15 @@ StoredBaProblem ReadBaProblem(const std::string& path) {
     throw DataError(path +
                     ": incomplete bundle-adjustment problem (header, camera or poses missing)");
   }
+  const auto count = [&](const char* what, size_t have, int64_t said) {
+    if (static_cast<int64_t>(have) == said) return;
+    throw DataError(path + ": " + std::to_string(have) + " " + what + ", the header says " +
+                    std::to_string(said) + (end ? "" : " (the file is cut short)"));
+  };
+  count("poses", p.T_w_c.size(), poses);
+  count("features", p.p_w.size(), features);
+  count("observations", p.observations.size(), observations);
+  if (!end) throw DataError(path + ": no end line (the file is cut short)");
   if (p.anchor_frame_id >= 0 && !p.T_w_c.count(p.anchor_frame_id)) {
     throw DataError(path + ": anchor frame " + std::to_string(p.anchor_frame_id) + " has no pose");
   }

@@ -226,7 +226,8 @@ class BundleAdjustmentRun {
 
   // Solves from the current values; again after each round of rejections.
   void Solve() {
-    if (ceres_problem_.NumResidualBlocks() == 0) {
+    if (options_.stop && options_.stop()) result_->interrupted = true;
+    if (ceres_problem_.NumResidualBlocks() == 0 || result_->interrupted) {
       summary_ = ceres::Solver::Summary();
       return;
     }
@@ -294,6 +295,21 @@ class BundleAdjustmentRun {
   ceres::Solver::Options solver_options_;
   ceres::Solver::Summary summary_;
   bool first_solve_ = true;
+
+  // Ends the solve once options.stop says so (after the iteration in progress).
+  class StopCallback : public ceres::IterationCallback {
+   public:
+    explicit StopCallback(BundleAdjustmentRun* run) : run_(run) {}
+    ceres::CallbackReturnType operator()(const ceres::IterationSummary&) override {
+      if (!run_->options_.stop()) return ceres::SOLVER_CONTINUE;
+      run_->result_->interrupted = true;
+      return ceres::SOLVER_TERMINATE_SUCCESSFULLY;
+    }
+
+   private:
+    BundleAdjustmentRun* run_;
+  };
+  StopCallback stop_callback_{this};
 };
 
 void BundleAdjustmentRun::AddObservations() {
@@ -359,6 +375,7 @@ void BundleAdjustmentRun::SetSolverOptions() {
   solver_options_.num_threads = options_.num_threads;
   solver_options_.logging_type = ceres::SILENT;
   solver_options_.minimizer_progress_to_stdout = false;
+  if (options_.stop) solver_options_.callbacks.push_back(&stop_callback_);
 }
 
 double BundleAdjustmentRun::NormsAndGate(const std::vector<ceres::ResidualBlockId>& blocks,
@@ -455,7 +472,8 @@ void BundleAdjustmentRun::Collect(int anchor_id, std::chrono::steady_clock::time
   }
   std::set<int> observed_frames;
   for (const auto& [frame_id, uses] : frame_uses_) observed_frames.insert(frame_id);
-  if (options_.compute_covariances && result.usable && !observed_frames.empty()) {
+  if (options_.compute_covariances && result.usable && !result.interrupted &&
+      !observed_frames.empty()) {
     const auto covariance_start = std::chrono::steady_clock::now();
     ComputePoseCovariances(&ceres_problem_, &params_, anchor_id, observed_frames, options_,
                            &result);
@@ -620,8 +638,8 @@ BundleAdjustmentResult SolveBundleAdjustment(const BundleAdjustmentProblem& prob
   BundleAdjustmentRun run(problem, camera, options, &result);
   run.Build(anchor_id);
   run.Solve();
-  for (int round = 0;
-       options.rejection_chi2 > 0.0 && round < options.max_rejection_rounds && run.usable();
+  for (int round = 0; options.rejection_chi2 > 0.0 && round < options.max_rejection_rounds &&
+                      run.usable() && !result.interrupted;
        ++round) {
     if (!run.RejectOutliers()) break;
     run.Solve();

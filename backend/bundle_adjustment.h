@@ -11,6 +11,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <string>
 #include <vector>
@@ -65,6 +66,9 @@ struct BundleAdjustmentOptions {
   bool compute_covariances = false;
   // An observation whose point is closer than this to the camera plane is invalid.
   double min_depth_m = 1e-3;
+  // Polled before each solve and after each iteration (not an option: no key, not reported):
+  // true ends the solve there, the result then `interrupted`.
+  std::function<bool()> stop;
 
   // The options' registration: keys, help, checks (core/option_table.h).
   static const OptionTable<BundleAdjustmentOptions>& Table();
@@ -169,6 +173,7 @@ struct BundleAdjustmentResult {
   int iterations = 0;         // summed over the solves
   int num_residuals = 0;      // scalar residuals: 3 per observation kept, 6 per relative pose
   bool usable = false;        // Ceres: CONVERGENCE or NO_CONVERGENCE with a finite cost
+  bool interrupted = false;   // options.stop ended it before it converged
   std::string termination;    // Ceres' termination type and message
   double solve_time_s = 0.0;
   double covariance_time_s = 0.0;

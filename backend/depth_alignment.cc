@@ -345,6 +345,10 @@ BundleAdjustmentResult SolveWithDepthAlignment(BundleAdjustmentProblem problem,
   if (options.rounds == 0) return SolveBundleAdjustment(problem, camera, ba_options);
   BundleAdjustmentResult result;
   for (int round = 0; round < options.rounds; ++round) {
+    if (round > 0 && ba_options.stop && ba_options.stop()) {
+      result.interrupted = true;
+      break;
+    }
     const auto align_start = std::chrono::steady_clock::now();
     problem.relative_poses = AlignCloudPairs(clouds, problem.T_w_c, options, s);
     s->seconds_alignment += SecondsSince(align_start);
@@ -356,6 +360,11 @@ BundleAdjustmentResult SolveWithDepthAlignment(BundleAdjustmentProblem problem,
     // usable == false only when the first round failed).
     if (!solved.usable) {
       if (round == 0) result = std::move(solved);
+      break;
+    }
+    if (solved.interrupted) {
+      if (round == 0) result = std::move(solved);
+      result.interrupted = true;
       break;
     }
     result = std::move(solved);

@@ -21,4 +21,11 @@ class ConfigError : public std::runtime_error {
   explicit ConfigError(const std::string& what) : std::runtime_error(what) {}
 };
 
+// An output that cannot be written: the output directory not creatable or not writable, a
+// full disk. The CLI maps it to exit code 4 (the input was fine).
+class OutputError : public std::runtime_error {
+ public:
+  explicit OutputError(const std::string& what) : std::runtime_error(what) {}
+};
+
 }  // namespace ieslam

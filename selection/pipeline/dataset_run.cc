@@ -1,6 +1,7 @@
 #include "selection/pipeline/dataset_run.h"
 
 #include <algorithm>
+#include <functional>
 
 #include <opencv2/core.hpp>
 
@@ -29,15 +30,21 @@ double Ate(const Trajectory& gt_read_back, const Trajectory& est, const std::str
 
 // Loads each of `frames` once, in the given order, into the dense map (at its pose in
 // `T_w_c`) and, when `clouds` is set, as a range cloud. A frame that cannot be loaded again,
-// or whose range image gives no cloud, is left out with a warning.
+// or whose range image gives no cloud, is left out with a warning. Stops early, setting
+// *stopped, once `stop` (when set) says so.
 void LoadSelectedFrames(const Dataset& dataset, const std::vector<int>& frames,
                         const std::vector<std::optional<Eigen::Isometry3d>>& T_w_c,
                         const RangeCloudOptions& cloud_options, DenseMap* map, RangeClouds* clouds,
+                        const std::function<bool()>& stop, bool* stopped,
                         std::vector<std::string>* warnings) {
   const std::string uses = map != nullptr && clouds != nullptr ? "the map and the depth alignment"
                            : map != nullptr                    ? "the map"
                                                                : "the depth alignment";
   for (const int frame : frames) {
+    if (stop && stop()) {
+      *stopped = true;
+      return;
+    }
     if (!T_w_c[frame]) continue;
     const std::string name = "frame " + std::to_string(frame);
     Frame loaded;
@@ -100,7 +107,7 @@ RunResult RunOnDataset(const Dataset& dataset, const RunOptions& options,
                                       const std::vector<std::optional<Eigen::Isometry3d>>& T_w_c) {
     RangeClouds loaded;
     LoadSelectedFrames(dataset, frames, T_w_c, used.range_cloud, run.map ? &*run.map : nullptr,
-                       &loaded, &run.warnings);
+                       &loaded, hooks.stop, &run.stopped_after_selection, &run.warnings);
     map_built = true;
     return loaded;
   };
@@ -109,13 +116,20 @@ RunResult RunOnDataset(const Dataset& dataset, const RunOptions& options,
   CollectTrajectories(dataset, &run);
   if (run.map && !map_built) {
     LoadSelectedFrames(dataset, run.pipeline.selection.selected, run.pipeline.T_w_c,
-                       used.range_cloud, &*run.map, nullptr, &run.warnings);
+                       used.range_cloud, &*run.map, nullptr, hooks.stop,
+                       &run.stopped_after_selection, &run.warnings);
+  }
+  // A stop in the refinement or the map, where the selection no longer polls.
+  if (hooks.stop && hooks.stop()) run.stopped_after_selection = true;
+  if (run.pipeline.refinement && !run.pipeline.refinement->ok()) {
+    run.warnings.push_back("no refinement: " + run.pipeline.refinement->failure +
+                           "; refined.tum is not written");
   }
   if (dataset.has_ground_truth()) {
     const Trajectory gt = AsReadBackFromTum(run.ground_truth, "groundtruth.tum");
     run.ate_keyframes_m = Ate(gt, run.keyframes, "keyframes.tum", &run.warnings);
     run.ate_trajectory_m = Ate(gt, run.trajectory, "trajectory.tum", &run.warnings);
-    if (run.pipeline.refinement) {
+    if (run.refined()) {
       run.ate_refined_m = Ate(gt, RefinedTrajectory(*run.pipeline.refinement, run.timestamps),
                               "refined.tum", &run.warnings);
     }

@@ -44,11 +44,18 @@ struct RunResult {
   std::chrono::steady_clock::time_point started;
   std::vector<std::string> warnings;  // things the user should hear about, one line each
 
+  // hooks.stop said so after the selection (in the refinement or the map); the map then
+  // holds the frames loaded before.
+  bool stopped_after_selection = false;
+
   int frames_processed() const { return pipeline.selection.frames_processed; }
-  bool interrupted() const { return pipeline.selection.interrupted; }
+  bool interrupted() const { return pipeline.selection.interrupted || stopped_after_selection; }
+  // The refinement to write as refined.tum: there and not failed.
+  bool refined() const { return pipeline.refinement && pipeline.refinement->ok(); }
 };
 
-// Runs the whole job on `dataset` (opened with options.dataset_options). Throws ConfigError
+// Runs the whole job on `dataset` (opened with options.dataset_options). A refinement that
+// failed or was interrupted comes back with its `failure` and a warning. Throws ConfigError
 // for options failing Check(); DataError from the dataset propagates.
 RunResult RunOnDataset(const Dataset& dataset, const RunOptions& options,
                        const PipelineHooks& hooks = {});

@@ -87,7 +87,7 @@ KnownAssociationMetrics RunKnownAssociation(const KnownAssociationInput& input,
     metrics.features = result.filter->num_features();
     std::vector<Eigen::Vector3d> p_true;
     MeasureErrors(input, result, &metrics, &p_true);
-    if (result.refinement && p_true.size() >= 3) {
+    if (result.refinement && result.refinement->ok() && p_true.size() >= 3) {
       const BundleAdjustmentResult& ba = result.refinement->smoothed;
       metrics.seconds_ba = ba.solve_time_s;
       std::vector<Eigen::Vector3d> p_refined;

@@ -50,8 +50,10 @@ PipelineResult RunPipeline(FrameSource* source, const PinholeCamera& camera,
   RangeClouds loaded;
   const bool align = clouds != nullptr && options.depth_alignment.rounds > 0;
   if (align) loaded = clouds(result.selection.selected, result.T_w_c);
-  result.refinement = Refine(result.problem, camera, result.estimate, options.ba,
-                             options.depth_alignment, align ? &loaded : nullptr);
+  BundleAdjustmentOptions ba = options.ba;
+  if (!ba.stop) ba.stop = hooks.stop;
+  result.refinement = Refine(result.problem, camera, result.estimate, ba, options.depth_alignment,
+                             align ? &loaded : nullptr);
   return result;
 }
 

@@ -46,8 +46,9 @@ struct PipelineOptions {
 struct PipelineHooks {
   // (frames done, frames selected), after each selector step.
   std::function<void(int, int)> progress;
-  // Polled between selector decisions: true ends the run there (result.selection.interrupted)
-  // with everything decided so far estimated and refined as usual.
+  // Polled between selector decisions and in the refinement's iterations: true ends the
+  // selection there (result.selection.interrupted) with everything decided so far estimated;
+  // a refinement it interrupts, or that starts after it, is no refinement (its `failure`).
   std::function<bool()> stop;
   std::function<void(const SelectionDecision&)> on_decision;
 };

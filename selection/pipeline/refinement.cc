@@ -62,8 +62,15 @@ Refinement Refine(const BundleAdjustmentProblem& problem, const PinholeCamera& c
   Refinement refinement;
   const auto start = std::chrono::steady_clock::now();
   refinement.smoothed = SolveBundleAdjustment(problem, camera, ba);
-  refinement.depth_alignment_tried = clouds != nullptr && depth.rounds > 0 &&
-                                     !clouds->clouds.empty() && refinement.smoothed.usable;
+  if (problem.observations.empty()) {
+    refinement.failure = "the problem has no observations";
+  } else if (refinement.smoothed.interrupted) {
+    refinement.failure = "the bundle adjustment was interrupted";
+  } else if (!refinement.smoothed.usable || refinement.smoothed.num_residuals == 0) {
+    refinement.failure = "the bundle adjustment failed (" + refinement.smoothed.termination + ")";
+  }
+  refinement.depth_alignment_tried =
+      clouds != nullptr && depth.rounds > 0 && !clouds->clouds.empty() && refinement.ok();
   if (refinement.depth_alignment_tried) {
     BundleAdjustmentProblem started = problem;
     started.T_w_c = refinement.smoothed.T_w_c;
@@ -73,7 +80,9 @@ Refinement Refine(const BundleAdjustmentProblem& problem, const PinholeCamera& c
     refinement.depth_frames = static_cast<int>(clouds->clouds.size());
     refinement.depth_frames_left_out = clouds->frames_left_out;
     refinement.depth_alignment_used = refinement.depth_aligned.usable;
-    if (!refinement.depth_alignment_used) {
+    if (refinement.depth_aligned.interrupted) {
+      refinement.failure = "the depth-aligned refinement was interrupted";
+    } else if (!refinement.depth_alignment_used) {
       refinement.warnings.push_back("the depth-aligned refinement failed (" +
                                     refinement.depth_aligned.termination +
                                     "); refined.tum is the bundle adjustment of the features");

@@ -41,6 +41,12 @@ struct Refinement {
   FilterSmootherComparison change_from_smoothed;
   double seconds = 0.0;  // both solves
   std::vector<std::string> warnings;
+  // Why there is no refinement to use: the problem has no observations, the bundle
+  // adjustment's solve is not usable, or it was interrupted (ba.stop); empty when refined()
+  // is a usable, complete solve. A failed refinement is never written as refined.tum.
+  std::string failure;
+
+  bool ok() const { return failure.empty(); }
 
   // The refined estimate: depth_aligned when used, else smoothed.
   const BundleAdjustmentResult& refined() const {
@@ -50,7 +56,8 @@ struct Refinement {
 
 // Bundle-adjusts `problem` (started from its poses and features) and compares the result with
 // `filter_estimate`; with `clouds` and depth.rounds > 0, goes on with the clouds' pairwise
-// alignments.
+// alignments. An interruption (ba.stop) anywhere, like a failed bundle adjustment, is
+// `failure`: a half-done refinement is no refinement.
 Refinement Refine(const BundleAdjustmentProblem& problem, const PinholeCamera& camera,
                   const SlamEstimate& filter_estimate, const BundleAdjustmentOptions& ba,
                   const DepthAlignmentOptions& depth, const RangeClouds* clouds = nullptr);

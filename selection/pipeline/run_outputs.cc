@@ -2,12 +2,14 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <filesystem>
 #include <set>
 #include <type_traits>
 #include <utility>
 #include <vector>
 
 #include "backend/ba_problem_io.h"
+#include "core/error.h"
 #include "core/file_util.h"
 #include "core/stopwatch.h"
 #include "selection/pipeline/run_report.h"
@@ -63,11 +65,36 @@ std::string SelectedFramesText(const Dataset& dataset, const std::vector<int>& s
   return lines;
 }
 
+void RemoveOutput(const std::string& path) {
+  std::error_code ec;
+  std::filesystem::remove(path, ec);
+  if (ec) throw OutputError("cannot remove " + path + " of an earlier run: " + ec.message());
+}
+
 }  // namespace
 
+const std::vector<std::string>& RunOutputNames() {
+  static const std::vector<std::string> names = {
+      "keyframes.tum",  "trajectory.tum",         "selected_frames.txt", "groundtruth.tum",
+      "ba_problem.txt", "information_blocks.txt", "refined.tum",         "map.ply",
+      "report.json",    "refine_report.json"};
+  return names;
+}
+
 void WriteRunOutputs(const std::string& out, const Dataset& dataset, const RunOptions& options,
-                     const RunResult& run) {
+                     const RunResult& run, const std::function<bool()>& stop) {
   const PipelineResult& p = run.pipeline;
+  RemoveStaleTempFiles(out, RunOutputNames());
+  RemoveOutput(JoinPath(out, "report.json"));
+  std::set<std::string> written = {"keyframes.tum", "trajectory.tum", "selected_frames.txt",
+                                   "report.json"};
+  if (dataset.has_ground_truth()) written.insert("groundtruth.tum");
+  if (p.has_estimate) written.insert({"ba_problem.txt", "information_blocks.txt"});
+  if (run.refined()) written.insert("refined.tum");
+  if (run.map) written.insert("map.ply");
+  for (const std::string& name : RunOutputNames()) {
+    if (!written.count(name)) RemoveOutput(JoinPath(out, name));
+  }
   WriteTumTrajectory(JoinPath(out, "keyframes.tum"), run.keyframes,
                      "ieslam keyframes (filter estimate)");
   WriteTumTrajectory(JoinPath(out, "trajectory.tum"), run.trajectory,
@@ -83,13 +110,14 @@ void WriteRunOutputs(const std::string& out, const Dataset& dataset, const RunOp
                    {p.problem, dataset.rig().colour, run.timestamps});
     WriteInformationBlocks(*p.filter, JoinPath(out, "information_blocks.txt"));
   }
-  if (p.refinement) {
+  if (run.refined()) {
     WriteTumTrajectory(JoinPath(out, "refined.tum"),
                        RefinedTrajectory(*p.refinement, run.timestamps),
                        "ieslam bundle-adjusted keyframes");
   }
   if (run.map) run.map->WritePly(JoinPath(out, "map.ply"));
-  const Json report = RunReport(dataset, options, run, SecondsSince(run.started));
+  Json report = RunReport(dataset, options, run, SecondsSince(run.started));
+  if (stop && stop()) report.Set("interrupted", true);
   WriteTextAtomically(JoinPath(out, "report.json"), report.Dump() + "\n");
 }
 

@@ -1,19 +1,32 @@
 // The files of a run (the command-line interface's list): keyframes.tum, trajectory.tum,
 // selected_frames.txt, groundtruth.tum (with ground truth), ba_problem.txt and
-// information_blocks.txt (with a filter), refined.tum (with --refine), map.ply (with a map)
-// and report.json, each written atomically, report.json last.
+// information_blocks.txt (with a filter), refined.tum (with a refinement that did not fail),
+// map.ply (with a map) and report.json, each written atomically.
+//
+// The set is consistent too: report.json, the set's commit point, is removed first and
+// written last, so that a set without it is one a run did not finish; the files of the set
+// this run does not write (an earlier run's refined.tum) are removed before it, and so is
+// `ieslam refine`'s refine_report.json, which was about the earlier problem. Files of other
+// names are never touched.
 #pragma once
 
+#include <functional>
 #include <string>
+#include <vector>
 
 #include "core/dataset.h"
 #include "selection/pipeline/dataset_run.h"
 
 namespace ieslam {
 
-// Writes `run` into the existing directory `out`. Throws DataError naming a file that cannot
-// be written.
+// Every name a run may write into its directory, and refine_report.json.
+const std::vector<std::string>& RunOutputNames();
+
+// Writes `run` into the existing directory `out`, first removing the temp files of these names
+// that writers no longer running left there. `stop`, when set, is asked before report.json:
+// true reports the run as interrupted (a signal while writing). Throws OutputError naming a
+// file that cannot be written or removed.
 void WriteRunOutputs(const std::string& out, const Dataset& dataset, const RunOptions& options,
-                     const RunResult& run);
+                     const RunResult& run, const std::function<bool()>& stop = nullptr);
 
 }  // namespace ieslam

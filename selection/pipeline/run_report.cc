@@ -123,6 +123,7 @@ Json RunReport(const Dataset& dataset, const RunOptions& options, const RunResul
   }
   if (refine) {
     report.Set("filter_vs_smoother", p.refinement ? RefinementToJson(*p.refinement) : Json());
+    if (p.refinement && !p.refinement->ok()) report.Set("refinement_failed", p.refinement->failure);
   }
   if (p.has_estimate) report.Set("keyframe_sigmas", PoseSigmasToJson(p.estimate, run.timestamps));
   report.Set("decisions", DecisionsToJson(dataset, p.selection.decisions));

@@ -160,6 +160,10 @@ StoredRefinement RefineStoredRun(const std::string& run_dir, const Dataset* data
   // The filter-versus-smoother comparison is always against the run's own estimate.
   result.refinement = Refine(started, stored.camera, InitialEstimate(stored.problem), options.ba,
                              options.depth_alignment, &clouds);
+  if (!result.refinement.ok()) {
+    throw DataError(JoinPath(run_dir, "ba_problem.txt") +
+                    ": no refinement: " + result.refinement.failure);
+  }
   for (const std::string& warning : result.refinement.warnings) result.warnings.push_back(warning);
   result.refined = RefinedTrajectory(result.refinement, stored.timestamps);
   if (has_gt) {

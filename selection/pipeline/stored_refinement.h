@@ -48,7 +48,8 @@ RangeClouds LoadRangeCloudsAtTimestamps(const Dataset& dataset, const StoredBaPr
 
 // Refines the run in `run_dir` (its ba_problem.txt; groundtruth.tum and keyframes.tum when
 // there, for the ATE and --from-ground-truth); `dataset`, when given, is the run's. Throws
-// DataError naming the file for a missing or bad stored problem or ground truth.
+// DataError naming the file for a missing or bad stored problem or ground truth, and naming
+// ba_problem.txt and why for a refinement that failed (Refinement::failure).
 StoredRefinement RefineStoredRun(const std::string& run_dir, const Dataset* dataset,
                                  const StoredRefinementOptions& options);
 

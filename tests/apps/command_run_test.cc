@@ -2,6 +2,7 @@
 // exact ground truth.
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <regex>
 #include <string>
 
@@ -175,6 +176,77 @@ TEST_F(CommandRunTest, SigintMakesTheCommandExit130WithItsOutputs) {
   for (const auto& entry : fs::directory_iterator(out)) {
     EXPECT_EQ(entry.path().string().find(".tmp."), std::string::npos) << entry.path();
   }
+}
+
+// Starts `ieslam run --dataset <synthetic> --output out --threads 1 --quiet <extra>`, sends
+// `signal` once the run is under way and returns its exit code (-1: no normal exit).
+int RunAndSignal(const fs::path& dataset, const fs::path& out, const char* extra, int signal) {
+  const pid_t child = fork();
+  if (child < 0) return -1;
+  if (child == 0) {
+    freopen("/dev/null", "w", stderr);
+    execl(IESLAM_BINARY, "ieslam", "run", "--dataset", dataset.c_str(), "--output", out.c_str(),
+          "--threads", "1", "--quiet", extra, static_cast<char*>(nullptr));
+    _exit(127);
+  }
+  for (int i = 0; i < 600 && !fs::exists(out); ++i) ::usleep(100 * 1000);
+  ::usleep(300 * 1000);
+  ::kill(child, signal);
+  int status = 0;
+  ::waitpid(child, &status, 0);
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+// SIGTERM is handled as Ctrl-C, with its own exit code; the refinement it interrupts (or
+// that would start after it) is no refinement: no refined.tum, the report says why.
+TEST_F(CommandRunTest, SigtermStopsARefiningRunWith143AndNoRefinedTrajectory) {
+  const fs::path out = root_ / "sigterm";
+  const int code = RunAndSignal(root_ / "synthetic", out, "--refine", SIGTERM);
+  if (code == 0) GTEST_SKIP() << "the run finished before the signal arrived";
+  EXPECT_EQ(code, 143);
+  const std::string report = ReadFile(out / "report.json");
+  EXPECT_NE(report.find("\"interrupted\": true"), std::string::npos) << report;
+  // Where the signal lands decides whether a refinement was done before it; refined.tum is
+  // there only when one was.
+  EXPECT_NE(fs::exists(out / "refined.tum"),
+            report.find("\"refinement_failed\"") != std::string::npos);
+  EXPECT_TRUE(fs::is_regular_file(out / "trajectory.tum"));
+  for (const auto& entry : fs::directory_iterator(out)) {
+    EXPECT_EQ(entry.path().string().find(".tmp."), std::string::npos) << entry.path();
+  }
+}
+
+// The output directory is checked before the work: exit 4, not 3 (the input is fine).
+TEST_F(CommandRunTest, AnOutputDirectoryThatCannotBeMadeIsExit4BeforeTheWork) {
+  const fs::path file = root_ / "a_file";
+  std::ofstream(file) << "in the way\n";
+  const testing_apps::CommandResult result = testing_apps::RunIeslam(
+      "run --dataset " + (root_ / "synthetic").string() + " --output " + (file / "out").string());
+  EXPECT_EQ(result.exit_code, 4) << result.output;
+  EXPECT_NE(result.output.find("cannot create output directory " + (file / "out").string()),
+            std::string::npos)
+      << result.output;
+  EXPECT_EQ(result.output.find("frames selected"), std::string::npos) << result.output;
+}
+
+// `refine --output` the run's own directory keeps the run's report; a later run without
+// --refine into it leaves no refined.tum or refine report of the earlier problem.
+TEST_F(CommandRunTest, RefineIntoTheRunsDirectoryKeepsItsReportAndARerunClearsTheRefinement) {
+  const fs::path out = root_ / "refine_in_place";
+  const std::string run_command = "run --quiet --threads 1 --dataset " +
+                                  (root_ / "synthetic").string() + " --output " + out.string();
+  ASSERT_EQ(testing_apps::RunIeslam(run_command).exit_code, 0);
+  const std::string run_report = ReadFile(out / "report.json");
+  const testing_apps::CommandResult refine =
+      testing_apps::RunIeslam("refine --run " + out.string() + " --output " + out.string());
+  ASSERT_EQ(refine.exit_code, 0) << refine.output;
+  EXPECT_EQ(ReadFile(out / "report.json"), run_report);
+  EXPECT_NE(ReadFile(out / "refine_report.json").find("\"filter_vs_smoother\""), std::string::npos);
+  EXPECT_TRUE(fs::is_regular_file(out / "refined.tum"));
+  ASSERT_EQ(testing_apps::RunIeslam(run_command).exit_code, 0);
+  EXPECT_FALSE(fs::exists(out / "refined.tum"));
+  EXPECT_FALSE(fs::exists(out / "refine_report.json"));
+  EXPECT_TRUE(fs::is_regular_file(out / "report.json"));
 }
 
 }  // namespace

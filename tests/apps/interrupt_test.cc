@@ -73,5 +73,25 @@ TEST(InterruptTest, EachStopOnInterruptStartsClear) {
             0);
 }
 
+// SIGTERM (batch schedulers) is handled as SIGINT, with its own exit code.
+TEST(InterruptTest, SigtermIsHandledAsSigintWithExitCode143) {
+  EXPECT_EQ(ExitCodeOf([] {
+              ExitOnInterrupt();
+              const StopOnInterrupt interrupt;
+              if (interrupt.exit_code() != 0) _exit(1);
+              raise(SIGTERM);
+              if (!interrupt.requested() || interrupt.exit_code() != 143) _exit(2);
+              raise(SIGINT);  // the second signal, whichever it is, exits
+              _exit(3);
+            }),
+            130);
+  EXPECT_EQ(ExitCodeOf([] {
+              ExitOnInterrupt();
+              raise(SIGTERM);
+              _exit(1);
+            }),
+            143);
+}
+
 }  // namespace
 }  // namespace ieslam

@@ -1,9 +1,12 @@
 #include "backend/ba_problem_io.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <random>
+#include <string>
+#include <vector>
 
 #include <unistd.h>
 
@@ -20,7 +23,9 @@ namespace fs = std::filesystem;
 class BaProblemIoTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("ieslam_ba_problem_io_" + std::to_string(::getpid()));
+    dir_ = fs::temp_directory_path() /
+           ("ieslam_ba_problem_io_" + std::to_string(::getpid()) + "_" +
+            ::testing::UnitTest::GetInstance()->current_test_info()->name());
     fs::create_directories(dir_);
     std::mt19937 rng(3);
     const testing_ba::TestScene scene = testing_ba::MakeTestScene(5, 60, &rng);
@@ -33,11 +38,38 @@ class BaProblemIoTest : public ::testing::Test {
 
   std::string Path(const char* name) const { return (dir_ / name).string(); }
 
-  // Writes the stored problem with `line` appended, and reads it back.
-  StoredBaProblem ReadWithExtraLine(const std::string& line) const {
+  // The lines of the stored problem as written.
+  std::vector<std::string> WrittenLines() const {
     WriteBaProblem(Path("p.txt"), stored_);
-    std::ofstream(Path("p.txt"), std::ios::app) << line << "\n";
+    std::ifstream in(Path("p.txt"));
+    std::vector<std::string> lines;
+    for (std::string line; std::getline(in, line);) lines.push_back(line);
+    return lines;
+  }
+
+  // Writes `lines` to p.txt and reads it back.
+  StoredBaProblem ReadLines(const std::vector<std::string>& lines) const {
+    std::ofstream out(Path("p.txt"), std::ios::trunc);
+    for (const std::string& line : lines) out << line << "\n";
+    out.close();
     return ReadBaProblem(Path("p.txt"));
+  }
+
+  // Writes the stored problem with `line` before its end line, and reads it back.
+  StoredBaProblem ReadWithExtraLine(const std::string& line) const {
+    std::vector<std::string> lines = WrittenLines();
+    lines.insert(lines.end() - 1, line);
+    return ReadLines(lines);
+  }
+
+  // The DataError's message of reading `lines` ("" when there is none).
+  std::string ErrorReading(const std::vector<std::string>& lines) const {
+    try {
+      ReadLines(lines);
+    } catch (const DataError& e) {
+      return e.what();
+    }
+    return "";
   }
 
   fs::path dir_;
@@ -95,6 +127,59 @@ TEST_F(BaProblemIoTest, BadFilesNameTheFileAndLine) {
   EXPECT_THROW(ReadBaProblem(Path("missing.txt")), DataError);
   std::ofstream(Path("empty.txt")) << "# nothing\n";
   EXPECT_THROW(ReadBaProblem(Path("empty.txt")), DataError);
+}
+
+TEST_F(BaProblemIoTest, AFileCutAtALineBoundaryIsRefusedNamingWhatIsMissing) {
+  const std::vector<std::string> lines = WrittenLines();
+  ASSERT_EQ(lines.back(), "end");
+  // Half the observations gone: the count says so.
+  std::vector<std::string> half(lines.begin(),
+                                lines.end() - 1 - stored_.problem.observations.size() / 2);
+  const std::string error = ErrorReading(half);
+  EXPECT_NE(error.find(Path("p.txt")), std::string::npos) << error;
+  EXPECT_NE(error.find("observations, the header says " +
+                       std::to_string(stored_.problem.observations.size())),
+            std::string::npos)
+      << error;
+  EXPECT_NE(error.find("cut short"), std::string::npos) << error;
+  // Every record there but the end line.
+  const std::string no_end = ErrorReading({lines.begin(), lines.end() - 1});
+  EXPECT_NE(no_end.find(Path("p.txt") + ": no end line"), std::string::npos) << no_end;
+  // Nothing may follow the end line.
+  std::vector<std::string> after = lines;
+  after.push_back(lines[lines.size() - 2]);
+  EXPECT_NE(ErrorReading(after).find("after the end line"), std::string::npos);
+}
+
+TEST_F(BaProblemIoTest, AnOlderOrUnknownVersionIsRefusedNamingIt) {
+  std::vector<std::string> lines = WrittenLines();
+  const auto header = std::find_if(lines.begin(), lines.end(), [](const std::string& line) {
+    return line.rfind("ieslam_ba_problem ", 0) == 0;
+  });
+  ASSERT_NE(header, lines.end());
+  *header = "ieslam_ba_problem 1";
+  const std::string old = ErrorReading(lines);
+  EXPECT_NE(old.find("version 1"), std::string::npos) << old;
+  EXPECT_NE(old.find("re-run `ieslam run`"), std::string::npos) << old;
+  *header = "ieslam_ba_problem 3 1 1 1";
+  EXPECT_NE(ErrorReading(lines).find("unsupported version 3"), std::string::npos);
+}
+
+TEST_F(BaProblemIoTest, AnObservationFarOutsideTheImageOrWithoutRangeIsRefused) {
+  const std::string frame = std::to_string(stored_.problem.T_w_c.begin()->first);
+  const std::string id = std::to_string(stored_.problem.p_w.begin()->first);
+  for (const auto& [z, part] : std::vector<std::pair<std::string, std::string>>{
+           {"1e308 200 1.5", "e+308, 200) lies farther outside"},
+           {"300 -1e9 1.5", "outside the"},
+           {"300 200 0", "range d = 0"}}) {
+    try {
+      ReadWithExtraLine("obs " + frame + " " + id + " " + z + " 1 0 0 1 0 0.0001");
+      ADD_FAILURE() << "no error for " << z;
+    } catch (const DataError& e) {
+      EXPECT_NE(std::string(e.what()).find(Path("p.txt") + ":"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find(part), std::string::npos) << e.what();
+    }
+  }
 }
 
 }  // namespace

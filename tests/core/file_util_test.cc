@@ -4,6 +4,8 @@
 #include <fstream>
 #include <string>
 
+#include <unistd.h>
+
 #include <gtest/gtest.h>
 
 #include "core/error.h"
@@ -37,6 +39,29 @@ TEST(FileUtil, AtomicWriteReplacesTheFileAndRequireFileNamesIt) {
   } catch (const DataError& e) {
     EXPECT_EQ(std::string(e.what()), "text not found: " + path);
   }
+}
+
+// What a signal handler ending the process calls: the write in progress leaves no temp file.
+TEST(FileUtil, TheTempFileOfAWriteInProgressCanBeRemoved) {
+  const std::string path = ::testing::TempDir() + "/ieslam_file_util_test_in_progress_" +
+                           std::to_string(::getpid()) + ".txt";
+  const std::string temp = path + ".tmp." + std::to_string(::getpid());
+  bool existed = false, removed = false;
+  EXPECT_THROW(WriteFileAtomically(path,
+                                   [&](std::ostream& out) {
+                                     out << "partial";
+                                     existed = std::filesystem::exists(temp);
+                                     RemoveTempFilesInProgress();
+                                     removed = !std::filesystem::exists(temp);
+                                   }),
+               OutputError);  // its rename finds no temp file
+  EXPECT_TRUE(existed);
+  EXPECT_TRUE(removed);
+  EXPECT_FALSE(std::filesystem::exists(path));
+}
+
+TEST(FileUtil, AnUnwritableDirectoryIsAnOutputError) {
+  EXPECT_THROW(WriteTextAtomically("/nonexistent_ieslam_dir/x.txt", "x"), OutputError);
 }
 
 }  // namespace

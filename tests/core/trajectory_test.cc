@@ -107,7 +107,7 @@ TEST_F(TrajectoryTest, FormatsSixDecimalTimestampsAndPositiveW) {
 }
 
 TEST_F(TrajectoryTest, AtomicWriteFailsCleanlyInAMissingDirectory) {
-  EXPECT_THROW(WriteTextAtomically((dir_ / "no" / "such" / "file.txt").string(), "x"), DataError);
+  EXPECT_THROW(WriteTextAtomically((dir_ / "no" / "such" / "file.txt").string(), "x"), OutputError);
 }
 
 // Found by tests/fuzz/tum_trajectory_fuzz.cc: a huge but finite coordinate was cut off by a

@@ -83,6 +83,38 @@ TEST_F(DatasetRunTest, WritesEveryOutputAndTracksTheSyntheticSequence) {
   EXPECT_NE(ply.find("element vertex "), std::string::npos);
 }
 
+// A stop after the last frame (Ctrl-C while refining) is not dropped: the run is interrupted,
+// its refinement is no refinement, and neither is written as refined.
+TEST_F(DatasetRunTest, AStopAfterTheLastFrameInterruptsTheRefinement) {
+  RunOptions options = Options();
+  options.pipeline.refine = true;
+  // Selection polls before each candidate: once it has looked at its last one, every further
+  // poll is the refinement's or the map's.
+  int polls = 0, selection_polls = 0;
+  {
+    PipelineHooks count;
+    count.stop = [&selection_polls] { return ++selection_polls < 0; };
+    RunOptions no_refine = Options();
+    no_refine.build_map = false;
+    Run(no_refine, "counting_polls", count);
+  }
+  PipelineHooks hooks;
+  hooks.stop = [&polls, selection_polls] { return ++polls > selection_polls; };
+  const RunResult run = Run(options, "stopped_refining", hooks);
+  EXPECT_EQ(run.frames_processed(), 36);
+  EXPECT_FALSE(run.pipeline.selection.interrupted);
+  EXPECT_TRUE(run.interrupted());
+  ASSERT_TRUE(run.pipeline.refinement);
+  EXPECT_FALSE(run.refined());
+  EXPECT_NE(run.pipeline.refinement->failure.find("interrupted"), std::string::npos);
+  EXPECT_LT(run.ate_refined_m, 0.0);
+  const fs::path out = root_ / "stopped_refining";
+  EXPECT_FALSE(fs::exists(out / "refined.tum"));
+  const std::string report = ReadFile(out / "report.json");
+  EXPECT_NE(report.find("\"interrupted\": true"), std::string::npos);
+  EXPECT_NE(report.find("\"refinement_failed\""), std::string::npos);
+}
+
 TEST_F(DatasetRunTest, StopRequestEndsTheRunAndStillWritesItsOutputs) {
   int polls = 0;
   PipelineHooks hooks;

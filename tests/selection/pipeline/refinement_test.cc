@@ -47,5 +47,48 @@ TEST(RefinementTest, BundleAdjustsAndComparesWithTheFilter) {
   EXPECT_EQ(json.find("\"depth_alignment\""), std::string::npos);
 }
 
+// A short simulation through the filter: a problem and the filter's estimate.
+PipelineResult FilteredSimulation(SimulatedDataset* data) {
+  SimulationOptions simulation;
+  simulation.trajectory.num_poses = 20;
+  simulation.trajectory.num_loops = 1;
+  *data = SimulatePaperScenario(simulation);
+  std::vector<double> timestamps(data->num_poses());
+  for (int k = 0; k < data->num_poses(); ++k) timestamps[k] = k;
+  KnownAssociationSource source(data->observations, timestamps, data->camera,
+                                PoseToIsometry(data->T_w_c_true[0]));
+  return RunPipeline(&source, data->camera, PipelineOptions());
+}
+
+// Ceres' summary says "usable" for a problem without residuals; no refinement came of it.
+TEST(RefinementTest, AProblemWithoutObservationsIsAFailure) {
+  SimulatedDataset data;
+  const PipelineResult filtered = FilteredSimulation(&data);
+  BundleAdjustmentProblem problem = filtered.problem;
+  problem.observations.clear();
+  const Refinement refinement = Refine(problem, data.camera, filtered.estimate,
+                                       BundleAdjustmentOptions(), DepthAlignmentOptions());
+  EXPECT_FALSE(refinement.ok());
+  EXPECT_NE(refinement.failure.find("no observations"), std::string::npos) << refinement.failure;
+}
+
+TEST(RefinementTest, AStopRequestInterruptsTheSolveAndIsAFailure) {
+  SimulatedDataset data;
+  const PipelineResult filtered = FilteredSimulation(&data);
+  BundleAdjustmentOptions ba;
+  int polls = 0;
+  ba.stop = [&polls] { return ++polls > 2; };
+  const Refinement refinement =
+      Refine(filtered.problem, data.camera, filtered.estimate, ba, DepthAlignmentOptions());
+  EXPECT_TRUE(refinement.smoothed.interrupted);
+  EXPECT_LE(refinement.smoothed.iterations, 2);
+  EXPECT_FALSE(refinement.ok());
+  EXPECT_NE(refinement.failure.find("interrupted"), std::string::npos) << refinement.failure;
+  // Without the request, the same solve is a refinement.
+  EXPECT_TRUE(Refine(filtered.problem, data.camera, filtered.estimate, BundleAdjustmentOptions(),
+                     DepthAlignmentOptions())
+                  .ok());
+}
+
 }  // namespace
 }  // namespace ieslam

@@ -113,5 +113,57 @@ TEST_F(RunOutputsTest, DeadReckoningWritesNoProblem) {
   EXPECT_EQ(ReadFile(out_ / "report.json").find("\"keyframe_sigmas\""), std::string::npos);
 }
 
+// The directory holds one run's set: an earlier run's files this one does not write go, a
+// stale temp file of a writer that is gone goes, other files stay.
+TEST_F(RunOutputsTest, AnEarlierRunsFilesThisRunDoesNotWriteAreRemoved) {
+  RunOptions options = Options();
+  options.build_map = false;
+  for (const char* name : {"refined.tum", "map.ply", "refine_report.json", "notes.txt"}) {
+    std::ofstream(out_ / name) << "an earlier run's\n";
+  }
+  // No process has a pid above the kernel's pid_max (at most 2^22).
+  std::ofstream(out_ / "map.ply.tmp.99999999") << "cut short\n";
+  std::ofstream(out_ / "map.ply.tmp.x") << "not ours\n";
+  const std::string alive = "trajectory.tum.tmp." + std::to_string(::getppid());
+  std::ofstream(out_ / alive) << "another run's, still writing\n";
+  RunAndWrite(options);
+  EXPECT_TRUE(fs::is_regular_file(out_ / "report.json"));
+  EXPECT_FALSE(fs::exists(out_ / "refined.tum"));
+  EXPECT_FALSE(fs::exists(out_ / "map.ply"));
+  EXPECT_FALSE(fs::exists(out_ / "refine_report.json"));
+  EXPECT_FALSE(fs::exists(out_ / "map.ply.tmp.99999999"));
+  EXPECT_TRUE(fs::exists(out_ / "notes.txt"));
+  EXPECT_TRUE(fs::exists(out_ / "map.ply.tmp.x"));
+  EXPECT_TRUE(fs::exists(out_ / alive));
+}
+
+// A refinement that failed writes no refined.tum and says why in the report.
+TEST_F(RunOutputsTest, AFailedRefinementIsReportedAndNotWrittenAsRefined) {
+  RunOptions options = Options();
+  options.build_map = false;
+  options.pipeline.refine = true;
+  const auto dataset = OpenDataset(options.dataset, options.dataset_options);
+  RunResult run = RunOnDataset(*dataset, options);
+  ASSERT_TRUE(run.refined());
+  std::ofstream(out_ / "refined.tum") << "an earlier run's\n";
+  run.pipeline.refinement->failure = "the bundle adjustment failed (FAILURE: test)";
+  WriteRunOutputs(out_.string(), *dataset, options, run);
+  EXPECT_FALSE(fs::exists(out_ / "refined.tum"));
+  const std::string report = ReadFile(out_ / "report.json");
+  EXPECT_NE(report.find("\"refinement_failed\": \"the bundle adjustment failed (FAILURE: test)\""),
+            std::string::npos)
+      << report;
+}
+
+TEST_F(RunOutputsTest, AStopWhileWritingIsReportedAsInterrupted) {
+  RunOptions options = Options();
+  options.build_map = false;
+  const auto dataset = OpenDataset(options.dataset, options.dataset_options);
+  const RunResult run = RunOnDataset(*dataset, options);
+  ASSERT_FALSE(run.interrupted());
+  WriteRunOutputs(out_.string(), *dataset, options, run, [] { return true; });
+  EXPECT_NE(ReadFile(out_ / "report.json").find("\"interrupted\": true"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace ieslam

@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 
+#include "backend/ba_problem_io.h"
 #include "core/error.h"
 #include "core/file_util.h"
 #include "selection/pipeline/dataset_run.h"
@@ -111,6 +112,24 @@ TEST_F(StoredRefinementTest, BadInputsAreErrorsNamingThem) {
   StoredRefinementOptions bad = Options();
   bad.ba.max_iterations = 0;
   EXPECT_THROW(RefineStoredRun(run_dir_.string(), nullptr, bad), ConfigError);
+}
+
+// Nothing to adjust is no refinement: an error naming the file and why, not the run's poses
+// passed off as refined.
+TEST_F(StoredRefinementTest, AProblemWithoutObservationsIsADataError) {
+  const fs::path dir = run_dir_ / "no_observations";
+  fs::create_directories(dir);
+  StoredBaProblem stored = ReadBaProblem((run_dir_ / "ba_problem.txt").string());
+  stored.problem.observations.clear();
+  WriteBaProblem((dir / "ba_problem.txt").string(), stored);
+  try {
+    RefineStoredRun(dir.string(), nullptr, Options());
+    FAIL() << "expected DataError";
+  } catch (const DataError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find((dir / "ba_problem.txt").string()), std::string::npos) << what;
+    EXPECT_NE(what.find("no observations"), std::string::npos) << what;
+  }
 }
 
 }  // namespace
