@@ -11,6 +11,7 @@
 
 #include "core/error.h"
 #include "core/file_util.h"
+#include "core/image_file.h"
 #include "core/pair_dataset.h"
 #include "core/seven_scenes_dataset.h"
 #include "core/tum_dataset.h"
@@ -22,23 +23,18 @@ std::string SizeString(int width, int height) {
   return std::to_string(width) + "x" + std::to_string(height);
 }
 
-// Reads an image, telling a missing file from one that does not decode.
+// Reads an image, telling a missing file from one that is truncated or does not decode.
 cv::Mat ReadImage(const std::string& path, int flags, const std::string& what, int frame) {
   const std::string prefix = "frame " + std::to_string(frame) + ": ";
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path, ec)) {
     throw DataError(prefix + what + " not found: " + path);
   }
-  cv::Mat image;
   try {
-    image = cv::imread(path, flags);
-  } catch (const cv::Exception& e) {
-    throw DataError(prefix + "cannot decode " + what + " " + path + ": " + e.msg);
+    return ReadImageFile(path, flags, what);
+  } catch (const DataError& e) {
+    throw DataError(prefix + e.what());
   }
-  if (image.empty()) {
-    throw DataError(prefix + "cannot decode " + what + " " + path + " (corrupt or not an image)");
-  }
-  return image;
 }
 
 void RequireSize(const cv::Mat& image, const PinholeCamera& camera, const std::string& path,
