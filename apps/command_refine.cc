@@ -82,6 +82,7 @@ int RefineCommand(const CommandArgs& args) {
     dataset_options.format = flags.GetString("format", dataset_options.format);
     dataset_options.calib_file = flags.GetString("calib", dataset_options.calib_file);
     dataset = OpenDataset(flags.Require("dataset"), dataset_options);
+    WarnAboutDataset("refine", *dataset);
   }
   const StoredRefinement refined = RefineStoredRun(run, dataset.get(), options);
   for (const std::string& warning : refined.warnings) PrintWarning("refine", warning);

@@ -101,6 +101,7 @@ SevenScenesDataset::SevenScenesDataset(const std::string& directory, const Datas
   const bool given = !options.calib_file.empty();
   calibration_path_ = given ? options.calib_file : DefaultCalibrationPath("7scenes");
   calibration_source_ = given ? "given calibration file" : "7-Scenes default";
+  calibration_chosen_by_ = given ? "option" : "format default";
   rig_ = ReadCalibration(calibration_path_);
   const std::string intrinsics = JoinPath(directory, "camera-intrinsics.txt");
   std::error_code ec;
