@@ -1,5 +1,6 @@
 #include "core/image_file.h"
 
+#include <array>
 #include <cctype>
 #include <cstdint>
 #include <fstream>
@@ -29,6 +30,24 @@ uint32_t LittleEndian32(const std::string& bytes, size_t at) {
   return v;
 }
 
+// PNG's CRC-32 (ISO 3309) of bytes[at, at + size).
+uint32_t Crc32(const std::string& bytes, size_t at, size_t size) {
+  static const std::array<uint32_t, 256> kTable = [] {
+    std::array<uint32_t, 256> table{};
+    for (uint32_t n = 0; n < 256; ++n) {
+      uint32_t c = n;
+      for (int k = 0; k < 8; ++k) c = (c & 1) ? 0xedb88320u ^ (c >> 1) : c >> 1;
+      table[n] = c;
+    }
+    return table;
+  }();
+  uint32_t c = 0xffffffffu;
+  for (size_t i = at; i < at + size; ++i) {
+    c = kTable[(c ^ static_cast<uint8_t>(bytes[i])) & 0xff] ^ (c >> 8);
+  }
+  return c ^ 0xffffffffu;
+}
+
 std::string JpegReason(const std::string& bytes) {
   size_t end = bytes.size();
   while (end > 0) {
@@ -40,7 +59,7 @@ std::string JpegReason(const std::string& bytes) {
       static_cast<uint8_t>(bytes[end - 1]) == 0xd9) {
     return "";
   }
-  return "the JPEG does not end with the end-of-image marker FF D9 (" +
+  return "truncated: the JPEG does not end with the end-of-image marker FF D9 (" +
          std::to_string(bytes.size()) + " bytes)";
 }
 
@@ -53,15 +72,23 @@ std::string PngReason(const std::string& bytes) {
     const std::string type = bytes.substr(at + 4, 4);
     const uint64_t end = at + 12 + length;
     if (end > bytes.size()) {
-      return "the PNG chunk '" + type + "' at byte " + std::to_string(at) + " needs " +
+      return "truncated: the PNG chunk '" + type + "' at byte " + std::to_string(at) + " needs " +
              std::to_string(end) + " bytes, the file has " + std::to_string(bytes.size());
+    }
+    // A critical chunk (upper-case first letter) whose CRC fails makes libpng fail the decode
+    // with a line of its own on stderr; ancillary chunks it skips with a warning, and so do we.
+    const uint32_t crc = BigEndian32(bytes, static_cast<size_t>(end) - 4);
+    if (std::isupper(static_cast<unsigned char>(type[0])) &&
+        Crc32(bytes, at + 4, static_cast<size_t>(length) + 4) != crc) {
+      return "damaged: the CRC of PNG chunk '" + type + "' at byte " + std::to_string(at) +
+             " does not match its data";
     }
     if (type == "IEND") return "";
     last = "chunk '" + type + "'";
     at = static_cast<size_t>(end);
   }
-  return "the PNG ends after " + last + " without an IEND chunk (" + std::to_string(bytes.size()) +
-         " bytes)";
+  return "truncated: the PNG ends after " + last + " without an IEND chunk (" +
+         std::to_string(bytes.size()) + " bytes)";
 }
 
 // Binary PGM / PPM: "P5" or "P6", width, height, maxval (whitespace and # comments between),
@@ -98,21 +125,21 @@ std::string PnmReason(const std::string& bytes) {
   const uint64_t needed = fields[0] * fields[1] * channels * sample_bytes;
   const uint64_t present = bytes.size() - at;
   if (present >= needed) return "";
-  return "the " + std::string(bytes[1] == '6' ? "PPM" : "PGM") + " header asks for " +
+  return "truncated: the " + std::string(bytes[1] == '6' ? "PPM" : "PGM") + " header asks for " +
          std::to_string(needed) + " bytes of pixels, the file holds " + std::to_string(present);
 }
 
 std::string BmpReason(const std::string& bytes) {
-  if (bytes.size() < 6) return "the BMP ends inside its header";
+  if (bytes.size() < 6) return "truncated: the BMP ends inside its header";
   const uint64_t declared = LittleEndian32(bytes, 2);
   if (declared <= bytes.size()) return "";
-  return "the BMP header gives a size of " + std::to_string(declared) + " bytes, the file has " +
-         std::to_string(bytes.size());
+  return "truncated: the BMP header gives a size of " + std::to_string(declared) +
+         " bytes, the file has " + std::to_string(bytes.size());
 }
 
 }  // namespace
 
-std::string IncompleteImageReason(const std::string& bytes) {
+std::string ImageFileDefect(const std::string& bytes) {
   if (StartsWith(bytes, "\xff\xd8\xff", 3)) return JpegReason(bytes);
   if (StartsWith(bytes, "\x89PNG\r\n\x1a\n", 8)) return PngReason(bytes);
   if (StartsWith(bytes, "P5", 2) || StartsWith(bytes, "P6", 2)) return PnmReason(bytes);
@@ -132,8 +159,8 @@ cv::Mat ReadImageFile(const std::string& path, int flags, const std::string& wha
     throw DataError(what + " " + path + " is too large to decode (" + std::to_string(bytes.size()) +
                     " bytes)");
   }
-  const std::string reason = IncompleteImageReason(bytes);
-  if (!reason.empty()) throw DataError(what + " " + path + " is truncated: " + reason);
+  const std::string defect = ImageFileDefect(bytes);
+  if (!defect.empty()) throw DataError(what + " " + path + " is " + defect);
   cv::Mat image;
   try {
     const cv::Mat buffer(1, static_cast<int>(bytes.size()), CV_8UC1, bytes.data());

@@ -28,22 +28,22 @@ std::string Encode(const std::string& ext, const cv::Mat& image) {
   return std::string(buffer.begin(), buffer.end());
 }
 
-TEST(IncompleteImageReason, WholeFilesPass) {
-  EXPECT_EQ(IncompleteImageReason(Encode(".jpg", Pattern(CV_8UC3))), "");
-  EXPECT_EQ(IncompleteImageReason(Encode(".png", Pattern(CV_8UC3))), "");
-  EXPECT_EQ(IncompleteImageReason(Encode(".png", Pattern(CV_16UC1))), "");
-  EXPECT_EQ(IncompleteImageReason(Encode(".ppm", Pattern(CV_8UC3))), "");
-  EXPECT_EQ(IncompleteImageReason(Encode(".pgm", Pattern(CV_16UC1))), "");
-  EXPECT_EQ(IncompleteImageReason(Encode(".bmp", Pattern(CV_8UC3))), "");
+TEST(ImageFileDefect, WholeFilesPass) {
+  EXPECT_EQ(ImageFileDefect(Encode(".jpg", Pattern(CV_8UC3))), "");
+  EXPECT_EQ(ImageFileDefect(Encode(".png", Pattern(CV_8UC3))), "");
+  EXPECT_EQ(ImageFileDefect(Encode(".png", Pattern(CV_16UC1))), "");
+  EXPECT_EQ(ImageFileDefect(Encode(".ppm", Pattern(CV_8UC3))), "");
+  EXPECT_EQ(ImageFileDefect(Encode(".pgm", Pattern(CV_16UC1))), "");
+  EXPECT_EQ(ImageFileDefect(Encode(".bmp", Pattern(CV_8UC3))), "");
   // Padding after the end marker, and bytes after IEND, are not a truncation.
-  EXPECT_EQ(IncompleteImageReason(Encode(".jpg", Pattern(CV_8UC3)) + std::string(7, '\0')), "");
-  EXPECT_EQ(IncompleteImageReason(Encode(".jpg", Pattern(CV_8UC3)) + "\r\n"), "");
-  EXPECT_EQ(IncompleteImageReason(Encode(".png", Pattern(CV_8UC3)) + "trailer"), "");
+  EXPECT_EQ(ImageFileDefect(Encode(".jpg", Pattern(CV_8UC3)) + std::string(7, '\0')), "");
+  EXPECT_EQ(ImageFileDefect(Encode(".jpg", Pattern(CV_8UC3)) + "\r\n"), "");
+  EXPECT_EQ(ImageFileDefect(Encode(".png", Pattern(CV_8UC3)) + "trailer"), "");
   // Not an image format with a check: left to the decoder.
-  EXPECT_EQ(IncompleteImageReason("not an image"), "");
+  EXPECT_EQ(ImageFileDefect("not an image"), "");
 }
 
-TEST(IncompleteImageReason, EveryCutOfACheckedFormatIsCaught) {
+TEST(ImageFileDefect, EveryCutOfACheckedFormatIsCaught) {
   for (const auto& [ext, type] : std::vector<std::pair<std::string, int>>{{".jpg", CV_8UC3},
                                                                           {".png", CV_8UC3},
                                                                           {".png", CV_16UC1},
@@ -53,16 +53,24 @@ TEST(IncompleteImageReason, EveryCutOfACheckedFormatIsCaught) {
     const std::string whole = Encode(ext, Pattern(type));
     // Every length from the longest signature (PNG's 8 bytes) to one byte short.
     for (size_t length = 8; length < whole.size(); ++length) {
-      const std::string reason = IncompleteImageReason(whole.substr(0, length));
+      const std::string reason = ImageFileDefect(whole.substr(0, length));
       // A cut PGM/PPM header that no longer parses is left to the decoder.
       if (reason.empty() && (ext == ".ppm" || ext == ".pgm") && length < 20) continue;
       ASSERT_FALSE(reason.empty()) << ext << " cut to " << length << " of " << whole.size();
     }
   }
-  EXPECT_TRUE(
-      Contains(IncompleteImageReason(Encode(".jpg", Pattern(CV_8UC3)).substr(0, 500)), "FF D9"));
-  EXPECT_TRUE(
-      Contains(IncompleteImageReason(Encode(".png", Pattern(CV_8UC3)).substr(0, 500)), "IDAT"));
+  EXPECT_TRUE(Contains(ImageFileDefect(Encode(".jpg", Pattern(CV_8UC3)).substr(0, 500)), "FF D9"));
+  EXPECT_TRUE(Contains(ImageFileDefect(Encode(".png", Pattern(CV_8UC3)).substr(0, 500)), "IDAT"));
+}
+
+// libpng fails on a damaged IDAT with a line of its own on stderr; the CRC catches it first.
+TEST(ImageFileDefect, ACriticalPngChunkWithABadCrcIsDamaged) {
+  std::string png = Encode(".png", Pattern(CV_8UC3));
+  const size_t idat = png.find("IDAT");
+  ASSERT_NE(idat, std::string::npos);
+  png[idat + 20] = static_cast<char>(png[idat + 20] ^ 0x55);
+  EXPECT_TRUE(Contains(ImageFileDefect(png), "damaged: the CRC of PNG chunk 'IDAT'"))
+      << ImageFileDefect(png);
 }
 
 class ImageFileTest : public ::testing::Test {
