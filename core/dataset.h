@@ -82,7 +82,7 @@ class Dataset {
   // caller to print and report.
   const std::vector<std::string>& warnings() const { return warnings_; }
 
-  // Reads frame i. Throws DataError naming the file for a missing or corrupt image or
+  // Reads frame i. Throws DataError naming the file for a missing, truncated or corrupt image or
   // one whose size does not match the calibration.
   Frame Load(int i) const;
 
