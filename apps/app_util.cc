@@ -76,6 +76,10 @@ void PrintWarning(const std::string& command, const std::string& text) {
   std::fprintf(stderr, "%s: warning: %s\n", command.c_str(), text.c_str());
 }
 
+void WarnAboutDataset(const std::string& command, const Dataset& dataset) {
+  for (const std::string& warning : dataset.warnings()) PrintWarning(command, warning);
+}
+
 void WarnAboutSkippedFrames(const std::string& command,
                             const std::vector<std::pair<int, std::string>>& skipped) {
   constexpr size_t kShown = 10;

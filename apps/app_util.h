@@ -38,6 +38,8 @@ class Progress {
 
 // "<command>: warning: <text>" on stderr.
 void PrintWarning(const std::string& command, const std::string& text);
+// The dataset's warnings (Dataset::warnings, a guessed calibration), before it is used.
+void WarnAboutDataset(const std::string& command, const Dataset& dataset);
 // One warning per skipped frame (the first few; report.json lists them all), so that a bad
 // image in the middle of a long sequence is seen without reading the report.
 void WarnAboutSkippedFrames(const std::string& command,

@@ -57,6 +57,12 @@ int EvaluateCommand(const CommandArgs& args) {
       EvaluateTrajectoryFiles(flags.Require("gt"), flags.Require("est"), options);
   if (!output.empty()) PrepareOutputDirectory(output);
   for (const std::string& warning : result.warnings) std::cerr << "warning: " << warning << "\n";
+  if (!result.ate_unavailable.empty()) {
+    std::cerr << "warning: no ATE: " << result.ate_unavailable << "\n";
+  }
+  if (!result.rpe_unavailable.empty()) {
+    std::cerr << "warning: no RPE: " << result.rpe_unavailable << "\n";
+  }
   std::cout << FormatEvaluation(result);
   if (!output.empty()) {
     WriteTextAtomically(JoinPath(output, "evaluation.json"), EvaluationToJson(result));

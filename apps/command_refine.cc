@@ -84,6 +84,7 @@ int RefineCommand(const CommandArgs& args) {
     dataset_options.format = flags.GetString("format", dataset_options.format);
     dataset_options.calib_file = flags.GetString("calib", dataset_options.calib_file);
     dataset = OpenDataset(flags.Require("dataset"), dataset_options);
+    WarnAboutDataset("refine", *dataset);
   }
   PrepareOutputDirectory(out);
   // Into the run's own directory the report goes beside the run's, which it must not replace.

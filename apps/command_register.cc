@@ -69,6 +69,7 @@ int RegisterCommand(const CommandArgs& args) {
   options.step = flags.GetInt("step", options.step, 1, 100000);
   const DatasetOptions dataset_options = DatasetOptionsFromFlags(flags);
   const auto dataset = OpenDataset(flags.Require("dataset"), dataset_options);
+  WarnAboutDataset("register", *dataset);
   PrepareOutputDirectory(output);
 
   Progress progress("register", dataset->size() - options.step, flags.Has("quiet"));

@@ -81,6 +81,7 @@ int RunCommand(const CommandArgs& args) {
   if (quiet && verbose) throw ConfigError("--quiet and --verbose exclude each other");
   const RunOptions options = RunOptionsFromFlags(flags);
   const auto dataset = OpenDataset(options.dataset, options.dataset_options);
+  WarnAboutDataset("run", *dataset);
   PrepareOutputDirectory(output);
   Progress progress("run", dataset->size(), quiet);
   PipelineHooks hooks;

@@ -1,12 +1,15 @@
 // ieslam: one binary, one subcommand per job.
 #include <malloc.h>
 
+#include <cstdlib>
 #include <exception>
+#include <filesystem>
 #include <iostream>
 #include <string>
 
 #include "apps/commands.h"
 #include "apps/interrupt.h"
+#include "core/data_directory.h"
 #include "core/error.h"
 #include "core/version.h"
 
@@ -26,7 +29,17 @@ void PrintUsage(std::ostream& out) {
          "writable, 130 interrupted (143 for SIGTERM).\n";
 }
 
+// The shipped data is searched for in $IESLAM_DATA_DIR, then beside the executable as
+// `cmake --install` lays it out, then in the source tree (core/data_directory.h).
+void FindShippedData() {
+  std::error_code ec;
+  const std::filesystem::path executable = std::filesystem::read_symlink("/proc/self/exe", ec);
+  SetDataDirectoryCandidates(
+      DataDirectoryCandidates(std::getenv("IESLAM_DATA_DIR"), ec ? "" : executable.string()));
+}
+
 int Main(int argc, char** argv) {
+  FindShippedData();
   if (argc < 2) {
     PrintUsage(std::cerr);
     return 2;

@@ -9,6 +9,7 @@
 #include <Eigen/SVD>
 #include <opencv2/core.hpp>
 
+#include "core/data_directory.h"
 #include "core/error.h"
 #include "core/file_util.h"
 #include "core/input_file.h"
@@ -356,7 +357,7 @@ void WriteCalibration(const std::string& path, const Rig& rig) {
 }
 
 std::string DefaultCalibrationPath(const std::string& name) {
-  return JoinPath(IESLAM_CALIB_DIR, name + ".yaml");
+  return JoinPath(JoinPath(DataDirectory(), "calib"), name + ".yaml");
 }
 
 }  // namespace ieslam

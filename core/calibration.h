@@ -55,8 +55,9 @@ std::string FormatCalibration(const Rig& rig);
 // Writes FormatCalibration(rig) atomically. Throws DataError when the file cannot be written.
 void WriteCalibration(const std::string& path, const Rig& rig);
 
-// `<IESLAM_CALIB_DIR>/<name>.yaml`: the calibration files shipped in data/calib/
-// ("tum_fr1", "tum_fr2", "tum_fr3", "7scenes", "sr3000_dragonfly2").
+// `<DataDirectory()>/calib/<name>.yaml` (core/data_directory.h): the calibration files shipped
+// in data/calib/ ("tum_fr1", "tum_fr2", "tum_fr3", "7scenes", "sr3000_dragonfly2"). Throws
+// ConfigError naming the places searched when no data directory is found.
 std::string DefaultCalibrationPath(const std::string& name);
 
 }  // namespace ieslam

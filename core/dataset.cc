@@ -11,6 +11,7 @@
 
 #include "core/error.h"
 #include "core/file_util.h"
+#include "core/image_file.h"
 #include "core/input_file.h"
 #include "core/pair_dataset.h"
 #include "core/seven_scenes_dataset.h"
@@ -23,20 +24,15 @@ std::string SizeString(int width, int height) {
   return std::to_string(width) + "x" + std::to_string(height);
 }
 
-// Reads an image, telling a missing file from one that does not decode.
+// Reads an image, telling a missing file from one that is truncated or does not decode.
 cv::Mat ReadImage(const std::string& path, int flags, const std::string& what, int frame) {
   const std::string prefix = "frame " + std::to_string(frame) + ": ";
-  RequireRegularInputFile(path, prefix + what);  // a FIFO would block imread forever
-  cv::Mat image;
+  RequireRegularInputFile(path, prefix + what);  // a FIFO would block the read forever
   try {
-    image = cv::imread(path, flags);
-  } catch (const cv::Exception& e) {
-    throw DataError(prefix + "cannot decode " + what + " " + path + ": " + e.msg);
+    return ReadImageFile(path, flags, what);
+  } catch (const DataError& e) {
+    throw DataError(prefix + e.what());
   }
-  if (image.empty()) {
-    throw DataError(prefix + "cannot decode " + what + " " + path + " (corrupt or not an image)");
-  }
-  return image;
 }
 
 void RequireSize(const cv::Mat& image, const PinholeCamera& camera, const std::string& path,

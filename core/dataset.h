@@ -73,8 +73,16 @@ class Dataset {
   // a library does not print, so a guessed calibration is reported here).
   const std::string& calibration_path() const { return calibration_path_; }
   const std::string& calibration_source() const { return calibration_source_; }
+  // How the calibration was chosen, one word for reports: "option" (DatasetOptions::calib_file),
+  // "dataset file" (a calibration file inside the dataset), "directory name" (the sequence's
+  // name names its camera), "format default" (the format has one camera) or "fallback" (a
+  // guess, with a warning).
+  const std::string& calibration_chosen_by() const { return calibration_chosen_by_; }
+  // Things about the dataset a user should hear (a guessed calibration), one line each, for the
+  // caller to print and report.
+  const std::vector<std::string>& warnings() const { return warnings_; }
 
-  // Reads frame i. Throws DataError naming the file for a missing or corrupt image or
+  // Reads frame i. Throws DataError naming the file for a missing, truncated or corrupt image or
   // one whose size does not match the calibration.
   Frame Load(int i) const;
 
@@ -96,6 +104,8 @@ class Dataset {
   int total_frames_ = 0;
   std::string calibration_path_;
   std::string calibration_source_;
+  std::string calibration_chosen_by_;
+  std::vector<std::string> warnings_;
 };
 
 // Detects the format of `directory` ("tum", "7scenes", "pair"); throws DataError when

@@ -13,10 +13,12 @@ PairDataset::PairDataset(const std::string& directory, const DatasetOptions& opt
   if (options.calib_file.empty()) {
     calibration_path_ = JoinPath(directory, "calib.yaml");
     calibration_source_ = "calib.yaml in the dataset directory";
+    calibration_chosen_by_ = "dataset file";
     RequireFile(calibration_path_, "pair dataset calibration");
   } else {
     calibration_path_ = options.calib_file;
     calibration_source_ = "given calibration file";
+    calibration_chosen_by_ = "option";
   }
   rig_ = ReadCalibration(calibration_path_);
   SelectFrames(ReadListedFrames(JoinPath(directory, "colour.txt"), JoinPath(directory, "range.txt"),

@@ -101,6 +101,7 @@ SevenScenesDataset::SevenScenesDataset(const std::string& directory, const Datas
   const bool given = !options.calib_file.empty();
   calibration_path_ = given ? options.calib_file : DefaultCalibrationPath("7scenes");
   calibration_source_ = given ? "given calibration file" : "7-Scenes default";
+  calibration_chosen_by_ = given ? "option" : "format default";
   rig_ = ReadCalibration(calibration_path_);
   const std::string intrinsics = JoinPath(directory, "camera-intrinsics.txt");
   std::error_code ec;
@@ -111,6 +112,7 @@ SevenScenesDataset::SevenScenesDataset(const std::string& directory, const Datas
 
   static const std::regex kName(R"(frame-(\d{1,9})\.(color\.png|color\.jpg|depth\.png|pose\.txt))");
   std::map<int, FrameFiles> files;
+  int png_colour = 0, jpg_colour = 0;
   for (const auto& entry : std::filesystem::directory_iterator(directory, ec)) {
     const std::string name = entry.path().filename().string();
     std::smatch match;
@@ -122,8 +124,10 @@ SevenScenesDataset::SevenScenesDataset(const std::string& directory, const Datas
       f.depth = path;
     } else if (kind == "pose.txt") {
       f.pose = path;
-    } else if (f.colour.empty() || kind == "color.png") {
-      f.colour = path;  // the original dataset's PNG wins over a JPEG copy
+    } else {
+      ++(kind == "color.png" ? png_colour : jpg_colour);
+      // The original dataset's PNG wins over a JPEG copy.
+      if (f.colour.empty() || kind == "color.png") f.colour = path;
     }
   }
   if (ec) throw DataError("cannot list dataset directory " + directory + ": " + ec.message());
@@ -131,32 +135,44 @@ SevenScenesDataset::SevenScenesDataset(const std::string& directory, const Datas
     throw DataError("no frames: no frame-NNNNNN.depth.png / .color.{png,jpg} in " + directory);
   }
 
+  // A frame missing its colour or depth image keeps its place with the file's expected path:
+  // Load reports it missing, so it is a counted skip as in the listed formats, not the end of
+  // the run (nor of one that would never reach it).
+  // A missing colour image is named as the sequence's other frames are.
+  const std::string missing_colour = jpg_colour > png_colour ? ".color.jpg" : ".color.png";
   std::vector<FrameInfo> all;
   std::vector<std::string> pose_paths;
   for (const auto& [number, f] : files) {
     char stem[32];
     std::snprintf(stem, sizeof(stem), "frame-%06d", number);
-    if (f.colour.empty()) {
-      throw DataError("7-Scenes frame " + std::to_string(number) + " has no colour image " +
-                      JoinPath(directory, std::string(stem) + ".color.{png,jpg}"));
-    }
-    if (f.depth.empty()) {
-      throw DataError("7-Scenes frame " + std::to_string(number) + " has no depth image " +
-                      JoinPath(directory, std::string(stem) + ".depth.png"));
-    }
     FrameInfo info;
     info.timestamp = number / kFrameRateHz;
-    info.colour_path = f.colour;
-    info.depth_path = f.depth;
+    info.colour_path =
+        f.colour.empty() ? JoinPath(directory, std::string(stem) + missing_colour) : f.colour;
+    info.depth_path =
+        f.depth.empty() ? JoinPath(directory, std::string(stem) + ".depth.png") : f.depth;
     all.push_back(std::move(info));
     pose_paths.push_back(f.pose);
   }
   SelectFrames(std::move(all), options);
   // Poses are read for the selected frames only: a few hundred tiny files, and opening a
   // strided sequence should not pay for the frames it skips.
+  int without_pose = 0;
+  std::string first_without_pose;
   for (FrameInfo& info : frames_) {
     const std::string& pose = pose_paths[info.source_index];
-    if (!pose.empty()) info.T_w_c_gt = ReadPose(pose);
+    if (!pose.empty()) {
+      info.T_w_c_gt = ReadPose(pose);
+    } else if (without_pose++ == 0) {
+      first_without_pose = std::filesystem::path(info.depth_path).filename().string();
+    }
+  }
+  // As a TUM frame outside the ground truth's time span, a frame without a pose file has no
+  // ground truth; when others have one, the gap is worth a line.
+  if (without_pose > 0 && without_pose < size()) {
+    warnings_.push_back(std::to_string(without_pose) + " of " + std::to_string(size()) +
+                        " selected frames have no pose file (the first: " + first_without_pose +
+                        "), so no ground truth");
   }
 }
 

@@ -2,6 +2,8 @@
 // frame-NNNNNN.color.{png,jpg}, frame-NNNNNN.depth.png (16-bit mm, 0 and 65535 invalid) and
 // frame-NNNNNN.pose.txt (4x4 camera-to-world, row-major, of the depth camera, which with
 // identity extrinsics is the colour camera's pose too). No timestamps: frame N is at N/30 s.
+// A frame number with any of these files is a frame: one missing its colour or depth image is
+// skipped when loaded (Load throws DataError), one missing its pose has no ground truth.
 //
 // Calibration: DatasetOptions::calib_file when set; else data/calib/7scenes.yaml with the
 // depth intrinsics of the directory's camera-intrinsics.txt (a 3x3 K) when present.

@@ -5,7 +5,7 @@
 //
 // Calibration: DatasetOptions::calib_file when set; else calib.yaml in the directory if
 // present; else data/calib/tum_fr{1,2,3}.yaml by the directory name (freiburg1/fr1, ...;
-// tum_fr1 when the name says nothing, which calibration_source() reports).
+// tum_fr1 when the name says nothing, with a warning in warnings()).
 #pragma once
 
 #include <string>

@@ -269,10 +269,27 @@ RpeResult ComputeRpe(const Trajectory& gt, const Trajectory& est, const Evaluati
 EvaluationResult EvaluateTrajectories(const Trajectory& gt, const Trajectory& est,
                                       const EvaluationOptions& options, const std::string& gt_name,
                                       const std::string& est_name) {
+  RequireValidOptions(options);
   EvaluationResult result;
   result.options = options;
-  result.ate = ComputeAte(gt, est, options, gt_name, est_name);
-  result.rpe = ComputeRpe(gt, est, options, gt_name, est_name);
+  try {
+    result.ate = ComputeAte(gt, est, options, gt_name, est_name);
+  } catch (const DataError& e) {
+    result.ate_unavailable = e.what();
+  }
+  try {
+    result.rpe = ComputeRpe(gt, est, options, gt_name, est_name);
+  } catch (const DataError& e) {
+    result.rpe_unavailable = e.what();
+  }
+  if (!result.ate_unavailable.empty() && !result.rpe_unavailable.empty()) {
+    // One message when both fail for the same reason (an empty file, no overlap).
+    throw DataError(result.ate_unavailable == result.rpe_unavailable
+                        ? result.ate_unavailable
+                        : "no ATE: " + result.ate_unavailable +
+                              "; no RPE: " + result.rpe_unavailable);
+  }
+  if (!result.ate_unavailable.empty()) return result;
   result.aligned_estimate.reserve(est.size());
   for (const TimedPose& pose : est) {
     TimedPose aligned;

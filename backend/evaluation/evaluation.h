@@ -88,8 +88,14 @@ struct EvaluationResult {
   EvaluationOptions options;  // the options used, for the report
   AteResult ate;
   RpeResult rpe;
+  // Why the ATE / the RPE could not be computed (ComputeAte's / ComputeRpe's DataError), or ""
+  // when it was and `ate` / `rpe` hold it. A short trajectory can have an ATE but no pair
+  // `delta` apart.
+  std::string ate_unavailable;
+  std::string rpe_unavailable;
   // The whole estimate (every stamp, not only associated ones) scaled and mapped into the
-  // ground-truth frame by ate.T_gt_est, with est timestamps + offset_s; for plots.
+  // ground-truth frame by ate.T_gt_est, with est timestamps + offset_s; for plots. Empty
+  // without an ATE.
   Trajectory aligned_estimate;
   // Things a user should hear about that did not stop the evaluation (repeated stamps).
   std::vector<std::string> warnings;
@@ -110,8 +116,10 @@ RpeResult ComputeRpe(const Trajectory& gt, const Trajectory& est, const Evaluati
                      const std::string& gt_name = "ground truth",
                      const std::string& est_name = "estimate");
 
-// ATE, RPE and the aligned estimate. The trajectories' files are read, and the result
-// written, by backend/evaluation/evaluation_io.h.
+// ATE, RPE and the aligned estimate: each of the ATE and the RPE that can be computed, the
+// other's reason in *_unavailable. Throws ConfigError for options failing Check(), DataError
+// (both reasons) when neither can be computed. The trajectories' files are read, and the
+// result written, by backend/evaluation/evaluation_io.h.
 EvaluationResult EvaluateTrajectories(const Trajectory& gt, const Trajectory& est,
                                       const EvaluationOptions& options,
                                       const std::string& gt_name = "ground truth",

@@ -99,16 +99,20 @@ EvaluationResult EvaluateTrajectoryFiles(const std::string& gt_path, const std::
 
 std::string FormatEvaluation(const EvaluationResult& result) {
   std::string out;
-  out += "ate.pairs " + std::to_string(result.ate.translation.count) + "\n";
-  AppendLine("ate.rmse", result.ate.translation.rmse, &out);
-  AppendLine("ate.mean", result.ate.translation.mean, &out);
-  AppendLine("ate.median", result.ate.translation.median, &out);
-  AppendLine("ate.std", result.ate.translation.std, &out);
-  AppendLine("ate.min", result.ate.translation.min, &out);
-  AppendLine("ate.max", result.ate.translation.max, &out);
-  out += "rpe.pairs " + std::to_string(result.rpe.translation.count) + "\n";
-  AppendLine("rpe.trans.rmse", result.rpe.translation.rmse, &out);
-  AppendLine("rpe.rot.rmse", result.rpe.rotation.rmse, &out);
+  if (result.ate_unavailable.empty()) {
+    out += "ate.pairs " + std::to_string(result.ate.translation.count) + "\n";
+    AppendLine("ate.rmse", result.ate.translation.rmse, &out);
+    AppendLine("ate.mean", result.ate.translation.mean, &out);
+    AppendLine("ate.median", result.ate.translation.median, &out);
+    AppendLine("ate.std", result.ate.translation.std, &out);
+    AppendLine("ate.min", result.ate.translation.min, &out);
+    AppendLine("ate.max", result.ate.translation.max, &out);
+  }
+  if (result.rpe_unavailable.empty()) {
+    out += "rpe.pairs " + std::to_string(result.rpe.translation.count) + "\n";
+    AppendLine("rpe.trans.rmse", result.rpe.translation.rmse, &out);
+    AppendLine("rpe.rot.rmse", result.rpe.rotation.rmse, &out);
+  }
   return out;
 }
 
@@ -130,7 +134,13 @@ std::string EvaluationToJson(const EvaluationResult& result) {
       .Set("delta", Json::BareDouble(options.delta))
       .Set("delta_unit", DeltaUnitName(options.delta_unit));
   Json json = Json::Object();
-  json.Set("ate", ate).Set("rpe", rpe).Set("options", json_options);
+  json.Set("ate", result.ate_unavailable.empty() ? ate : Json())
+      .Set("rpe", result.rpe_unavailable.empty() ? rpe : Json())
+      .Set("options", json_options);
+  Json unavailable = Json::Object();
+  if (!result.ate_unavailable.empty()) unavailable.Set("ate", result.ate_unavailable);
+  if (!result.rpe_unavailable.empty()) unavailable.Set("rpe", result.rpe_unavailable);
+  if (!unavailable.empty()) json.Set("unavailable", unavailable);
   return json.Dump() + "\n";
 }
 

@@ -33,11 +33,14 @@ EvaluationResult EvaluateTrajectoryFiles(const std::string& gt_path, const std::
 
 // The `key value` lines `ieslam evaluate` prints: ate.pairs, ate.rmse, ate.mean,
 // ate.median, ate.std, ate.min, ate.max, rpe.pairs, rpe.trans.rmse, rpe.rot.rmse (degrees);
-// 6 decimals, one line each, newline-terminated.
+// 6 decimals, one line each, newline-terminated. The ate.* or rpe.* lines are left out when
+// that error could not be computed (the result's *_unavailable says why).
 std::string FormatEvaluation(const EvaluationResult& result);
 
 // OUT/evaluation.json: {"ate": {"pairs", "rmse", "mean", "median", "std", "min", "max"},
 // "rpe": {"pairs", "trans": {...}, "rot": {...}}, "options": {...}}; numbers round-trip.
+// An error that could not be computed is null, with its reason in "unavailable": {"ate" or
+// "rpe": why}.
 std::string EvaluationToJson(const EvaluationResult& result);
 
 }  // namespace ieslam

@@ -102,6 +102,9 @@ Json RunReport(const Dataset& dataset, const RunOptions& options, const RunResul
       .Set("dataset", options.dataset)
       .Set("format", dataset.format())
       .Set("calibration", dataset.calibration_path())
+      .Set("calibration_choice", Json::Object()
+                                     .Set("chosen_by", dataset.calibration_chosen_by())
+                                     .Set("source", dataset.calibration_source()))
       .Set("seed", static_cast<int64_t>(options.seed))
       .Set("options", options.ToJson())
       .Set("frames_total", dataset.size())
@@ -116,6 +119,10 @@ Json RunReport(const Dataset& dataset, const RunOptions& options, const RunResul
       .Set("features", p.filter->num_features())
       .Set("interrupted", run.interrupted())
       .Set("frames_processed", run.frames_processed());
+  // The dataset's warnings (printed when it was opened) and the run's, as printed.
+  std::vector<std::string> warnings = dataset.warnings();
+  warnings.insert(warnings.end(), run.warnings.begin(), run.warnings.end());
+  report.Set("warnings", Json::ArrayOf(warnings));
   report.Set("seconds", SecondsToJson(run, refine, total_seconds));
   if (dataset.has_ground_truth()) {
     const Json ate = AteToJson(run, refine);

@@ -3,6 +3,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cstdio>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -105,6 +106,50 @@ TEST(CliTest, SigintEndsSynthWith130AndAShorterCompleteDataset) {
   EXPECT_NE(ReadFile(out / "synthetic.txt").find("frames: " + std::to_string(frames) + "\n"),
             std::string::npos);
   fs::remove_all(out);
+}
+
+// The binary moved out of the build tree, laid out as `cmake --install` lays it out, reads the
+// calibration installed beside it, or the one IESLAM_DATA_DIR names.
+TEST(CliTest, AnInstalledBinaryFindsItsDataBesideItselfOrInIeslamDataDir) {
+  const fs::path prefix = TempPath("installed");
+  fs::create_directories(prefix / "bin");
+  fs::create_directories(prefix / "share/ieslam");
+  fs::create_directories(prefix / "elsewhere");
+  fs::copy_file(IESLAM_BINARY, prefix / "bin/ieslam");
+  const fs::path source_calib = fs::path(IESLAM_SOURCE_DIR) / "data/calib";
+  fs::copy(source_calib, prefix / "share/ieslam/calib");
+  fs::copy(source_calib, prefix / "elsewhere/calib");
+  // A TUM sequence whose name names no camera: the warning names the calibration file used.
+  const fs::path sequence = prefix / "sequence";
+  fs::create_directories(sequence);
+  const fs::path tum = fs::path(IESLAM_SHARED_DATA_DIR) / "tum-fr1-desk-9";
+  for (const char* name : {"rgb", "depth", "rgb.txt", "depth.txt", "groundtruth.txt"}) {
+    fs::create_symlink(tum / name, sequence / name);
+  }
+  const std::string command = "register --quiet --step 1 --last 1 --dataset " + sequence.string() +
+                              " --output " + (prefix / "out").string() + " 2>&1";
+  auto run = [&](const std::string& environment) {
+    CommandResult result;
+    FILE* pipe =
+        popen((environment + " " + (prefix / "bin/ieslam").string() + " " + command).c_str(), "r");
+    char buffer[4096];
+    size_t n;
+    while ((n = fread(buffer, 1, sizeof(buffer), pipe)) > 0) result.output.append(buffer, n);
+    const int status = pclose(pipe);
+    result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    return result;
+  };
+  const Result installed = run("env -u IESLAM_DATA_DIR");
+  EXPECT_EQ(installed.exit_code, 0) << installed.output;
+  EXPECT_NE(installed.output.find((prefix / "share/ieslam/calib/tum_fr1.yaml").string()),
+            std::string::npos)
+      << installed.output;
+  const Result named = run("IESLAM_DATA_DIR=" + (prefix / "elsewhere").string());
+  EXPECT_EQ(named.exit_code, 0) << named.output;
+  EXPECT_NE(named.output.find((prefix / "elsewhere/calib/tum_fr1.yaml").string()),
+            std::string::npos)
+      << named.output;
+  fs::remove_all(prefix);
 }
 
 TEST(CliTest, VersionPrintsTheProjectVersion) {

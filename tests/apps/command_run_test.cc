@@ -141,6 +141,28 @@ TEST_F(CommandRunTest, SingleThreadRunsAreByteIdentical) {
   }
 }
 
+// A TUM sequence whose name names no camera runs with freiburg1's calibration, and says so.
+TEST_F(CommandRunTest, AGuessedCalibrationIsAWarningOnStderrAndInTheReport) {
+  const fs::path sequence = root_ / "unnamed_sequence";
+  fs::create_directories(sequence);
+  const fs::path tum = fs::path(IESLAM_SHARED_DATA_DIR) / "tum-fr1-desk-9";
+  for (const char* name : {"rgb", "depth", "rgb.txt", "depth.txt", "groundtruth.txt"}) {
+    fs::create_symlink(tum / name, sequence / name);
+  }
+  const fs::path out = root_ / "unnamed_out";
+  const testing_apps::CommandResult r = testing_apps::RunIeslam(
+      "run --quiet --last 2 --dataset " + sequence.string() + " --output " + out.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const std::string warning = "the directory name 'unnamed_sequence' names no TUM camera";
+  EXPECT_NE(r.output.find("run: warning: " + warning), std::string::npos) << r.output;
+  const std::string report = ReadFile(out / "report.json");
+  EXPECT_NE(report.find("\"chosen_by\": \"fallback\""), std::string::npos)
+      << report.substr(0, 2000);
+  const size_t warnings = report.find("\"warnings\": [");
+  ASSERT_NE(warnings, std::string::npos) << report.substr(0, 2000);
+  EXPECT_NE(report.find(warning, warnings), std::string::npos) << report.substr(0, 2000);
+}
+
 TEST_F(CommandRunTest, MissingDatasetIsADataErrorNamingIt) {
   const testing_apps::CommandResult missing =
       testing_apps::RunIeslam("run --dataset " + (root_ / "no_such_dataset").string() +

@@ -2,9 +2,12 @@
 
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
 
 #include "core/dataset_test_files.h"
 #include "core/error.h"
@@ -63,6 +66,30 @@ TEST_F(DatasetFilesTest, CorruptOrMissingImagesNameTheFileOnLoad) {
   ExpectDataError([&] { dataset->Load(0); }, dataset->info(0).depth_path);
   fs::remove(dataset->info(1).colour_path);
   ExpectDataError([&] { dataset->Load(1); }, dataset->info(1).colour_path);
+  EXPECT_NO_THROW(dataset->Load(2));
+}
+
+// A cut image decodes (libjpeg fills the rest with grey); Load must refuse it instead.
+TEST_F(DatasetFilesTest, TruncatedJpegOrPngIsAnErrorNamingTheFileOnLoad) {
+  MakeTum(3);
+  const auto dataset = OpenDataset(dir_, DatasetOptions());
+  cv::Mat texture(480, 640, CV_8UC3);
+  cv::randu(texture, 0, 255);
+  std::vector<uchar> jpeg;
+  ASSERT_TRUE(cv::imencode(".jpg", texture, jpeg));
+  const std::string colour0 = dataset->info(0).colour_path;
+  std::ofstream(colour0, std::ios::binary)
+      .write(reinterpret_cast<const char*>(jpeg.data()), jpeg.size() / 2);
+  ASSERT_FALSE(cv::imread(colour0).empty()) << "the decoder alone accepts the cut JPEG";
+  ExpectDataError([&] { dataset->Load(0); },
+                  "frame 0: colour image " + colour0 + " is truncated: the JPEG does not end");
+
+  std::vector<uchar> png;
+  ASSERT_TRUE(cv::imencode(".png", Depth(640, 480, 5000), png));
+  const std::string depth1 = dataset->info(1).depth_path;
+  std::ofstream(depth1, std::ios::binary)
+      .write(reinterpret_cast<const char*>(png.data()), png.size() - 1);
+  ExpectDataError([&] { dataset->Load(1); }, "frame 1: range image " + depth1 + " is truncated");
   EXPECT_NO_THROW(dataset->Load(2));
 }
 

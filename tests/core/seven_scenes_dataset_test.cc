@@ -133,10 +133,54 @@ TEST_F(DatasetFilesTest, SevenScenesBadPosesAndMissingDepthNameTheFile) {
   DatasetOptions first_only;
   first_only.last = 0;
   EXPECT_EQ(OpenDataset(dir_, first_only)->size(), 1);
+}
 
-  std::filesystem::remove(Path("frame-000001.pose.txt"));
+// A frame missing an image is a frame that fails to load (a counted skip of the run), wherever
+// it lies; one missing its pose has no ground truth, with a warning.
+TEST_F(DatasetFilesTest, SevenScenesMissingFilesAreSkipsOrFramesWithoutGroundTruth) {
+  for (int i = 0; i < 4; ++i) {
+    char stem[32];
+    std::snprintf(stem, sizeof(stem), "frame-%06d", i);
+    WriteImage(std::string(stem) + ".color.png", Colour(640, 480));
+    WriteImage(std::string(stem) + ".depth.png", Depth(640, 480, 1500));
+    WriteText(std::string(stem) + ".pose.txt", "1 0 0 0\n0 1 0 0\n0 0 1 0\n0 0 0 1\n");
+  }
   std::filesystem::remove(Path("frame-000001.depth.png"));
-  ExpectDataError([&] { OpenDataset(dir_, DatasetOptions()); }, Path("frame-000001.depth.png"));
+  std::filesystem::remove(Path("frame-000002.color.png"));
+  std::filesystem::remove(Path("frame-000003.pose.txt"));
+  const auto dataset = OpenDataset(dir_, DatasetOptions());
+  ASSERT_EQ(dataset->size(), 4);
+  EXPECT_NO_THROW(dataset->Load(0));
+  ExpectDataError([&] { dataset->Load(1); },
+                  "frame 1: range image not found: " + Path("frame-000001.depth.png"));
+  ExpectDataError([&] { dataset->Load(2); },
+                  "frame 2: colour image not found: " + Path("frame-000002.color.png"));
+  EXPECT_NO_THROW(dataset->Load(3));
+  EXPECT_TRUE(dataset->info(2).T_w_c_gt.has_value());
+  EXPECT_FALSE(dataset->info(3).T_w_c_gt.has_value());
+  EXPECT_EQ(dataset->GroundTruth().size(), 3u);
+  ASSERT_EQ(dataset->warnings().size(), 1u);
+  EXPECT_TRUE(Contains(dataset->warnings()[0], "1 of 4 selected frames have no pose file"))
+      << dataset->warnings()[0];
+  EXPECT_TRUE(Contains(dataset->warnings()[0], "frame-000003"));
+
+  // Outside the selection, a missing file changes nothing.
+  DatasetOptions first_only;
+  first_only.last = 0;
+  const auto first = OpenDataset(dir_, first_only);
+  ASSERT_EQ(first->size(), 1);
+  EXPECT_NO_THROW(first->Load(0));
+  EXPECT_TRUE(first->warnings().empty());
+
+  // In a sequence of JPEG colour images, the missing one is named as a JPEG.
+  for (int i : {0, 1, 3}) {
+    char stem[32];
+    std::snprintf(stem, sizeof(stem), "frame-%06d", i);
+    std::filesystem::rename(Path(std::string(stem) + ".color.png"),
+                            Path(std::string(stem) + ".color.jpg"));
+  }
+  EXPECT_EQ(OpenDataset(dir_, DatasetOptions())->info(2).colour_path,
+            Path("frame-000002.color.jpg"));
 }
 
 }  // namespace

@@ -15,6 +15,8 @@
 namespace ieslam {
 namespace {
 
+namespace fs = std::filesystem;
+
 // ---------------------------------------------------------------- real data: TUM
 
 TEST(TumDataset, AssociatesTheNinePairs) {
@@ -117,6 +119,13 @@ TEST_F(DatasetFilesTest, TumCalibrationChoiceIsReported) {
   EXPECT_FALSE(dataset->has_ground_truth());
   EXPECT_EQ(dataset->calibration_path(), DefaultCalibrationPath("tum_fr1"));
   EXPECT_TRUE(Contains(dataset->calibration_source(), "default"));
+  EXPECT_EQ(dataset->calibration_chosen_by(), "fallback");
+  // The guess is a warning, naming the directory and the file used.
+  ASSERT_EQ(dataset->warnings().size(), 1u);
+  EXPECT_TRUE(Contains(dataset->warnings()[0], "'" + fs::path(dir_).filename().string() + "'"))
+      << dataset->warnings()[0];
+  EXPECT_TRUE(Contains(dataset->warnings()[0], DefaultCalibrationPath("tum_fr1")));
+  EXPECT_TRUE(Contains(dataset->warnings()[0], "--calib"));
   EXPECT_NEAR(dataset->Load(2).depth.at<float>(10, 10), 1.0f, 1e-6);
 
   // A sequence named after freiburg2 gets fr2's intrinsics.
@@ -125,11 +134,18 @@ TEST_F(DatasetFilesTest, TumCalibrationChoiceIsReported) {
   dataset = OpenDataset(fr2 + "/", DatasetOptions());
   EXPECT_EQ(dataset->rig().name, "tum_fr2");
   EXPECT_TRUE(Contains(dataset->calibration_source(), "freiburg2"));
+  EXPECT_EQ(dataset->calibration_chosen_by(), "directory name");
+  EXPECT_TRUE(dataset->warnings().empty());
 
   // calib_file wins over the name.
   DatasetOptions options;
   options.calib_file = DefaultCalibrationPath("tum_fr3");
-  EXPECT_EQ(OpenDataset(fr2, options)->rig().name, "tum_fr3");
+  dataset = OpenDataset(fr2, options);
+  EXPECT_EQ(dataset->rig().name, "tum_fr3");
+  EXPECT_EQ(dataset->calibration_chosen_by(), "option");
+  EXPECT_TRUE(dataset->warnings().empty());
+  // As it does over a name that names no camera.
+  EXPECT_TRUE(OpenDataset(dir_, options)->warnings().empty());
 
   // A calib.yaml inside the sequence (as `ieslam synth` writes) wins over the name too.
   Rig own = ReadCalibration(DefaultCalibrationPath("tum_fr3"));
@@ -138,6 +154,7 @@ TEST_F(DatasetFilesTest, TumCalibrationChoiceIsReported) {
   dataset = OpenDataset(fr2, DatasetOptions());
   EXPECT_EQ(dataset->rig().name, "own_rig");
   EXPECT_EQ(dataset->calibration_path(), fr2 + "/calib.yaml");
+  EXPECT_EQ(dataset->calibration_chosen_by(), "dataset file");
 }
 
 TEST_F(DatasetFilesTest, TumConstructorRejectsBadOptionsWithConfigError) {

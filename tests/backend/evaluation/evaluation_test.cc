@@ -191,6 +191,33 @@ TEST(EvaluationTest, FewerThanThreePairsThrowsNamingTheFiles) {
   EXPECT_THROW(ComputeRpe(gt, est, EvaluationOptions()), DataError);
 }
 
+// A trajectory shorter than the RPE's delta still has its ATE; only when neither can be
+// computed does the evaluation fail.
+TEST(EvaluationTest, EvaluatesWhatCanBeComputedAndSaysWhyTheRestCannot) {
+  const Trajectory gt = MakeTrajectory(20);
+  const Trajectory est(gt.begin(), gt.begin() + 3);
+  const EvaluationResult result = EvaluateTrajectories(gt, est, EvaluationOptions());
+  EXPECT_TRUE(result.ate_unavailable.empty()) << result.ate_unavailable;
+  EXPECT_EQ(result.ate.translation.count, 3u);
+  EXPECT_EQ(result.aligned_estimate.size(), 3u);
+  EXPECT_NE(result.rpe_unavailable.find("relative-pose pairs (delta 1 s)"), std::string::npos)
+      << result.rpe_unavailable;
+
+  // Two poses: no ATE (3 needed) and no RPE either.
+  const Trajectory two(gt.begin(), gt.begin() + 2);
+  try {
+    EvaluateTrajectories(gt, two, EvaluationOptions(), "gt.txt", "two.txt");
+    FAIL() << "expected DataError";
+  } catch (const DataError& e) {
+    EXPECT_NE(std::string(e.what()).find("no ATE: only 2 poses of two.txt"), std::string::npos)
+        << e.what();
+    EXPECT_NE(std::string(e.what()).find("; no RPE: "), std::string::npos) << e.what();
+  }
+  EvaluationOptions bad;
+  bad.max_diff_s = 0.0;
+  EXPECT_THROW(EvaluateTrajectories(gt, est, bad), ConfigError);
+}
+
 TEST(EvaluationTest, FindClosestIndexKeepsTheReferenceTieBreak) {
   const std::vector<double> list = {0.0, 1.0, 2.0, 3.0};
   EXPECT_EQ(FindClosestIndex(list, -5.0), 0u);

@@ -1,0 +1,177 @@
+#include "core/image_file.h"
+
+#include <array>
+#include <cctype>
+#include <cstdint>
+#include <fstream>
+#include <limits>
+#include <vector>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include "core/error.h"
+
+namespace ieslam {
+namespace {
+
+bool StartsWith(const std::string& bytes, const char* magic, size_t size) {
+  return bytes.size() >= size && bytes.compare(0, size, magic, size) == 0;
+}
+
+uint32_t BigEndian32(const std::string& bytes, size_t at) {
+  uint32_t v = 0;
+  for (size_t k = 0; k < 4; ++k) v = (v << 8) | static_cast<uint8_t>(bytes[at + k]);
+  return v;
+}
+
+uint32_t LittleEndian32(const std::string& bytes, size_t at) {
+  uint32_t v = 0;
+  for (size_t k = 4; k > 0; --k) v = (v << 8) | static_cast<uint8_t>(bytes[at + k - 1]);
+  return v;
+}
+
+// PNG's CRC-32 (ISO 3309) of bytes[at, at + size).
+uint32_t Crc32(const std::string& bytes, size_t at, size_t size) {
+  static const std::array<uint32_t, 256> kTable = [] {
+    std::array<uint32_t, 256> table{};
+    for (uint32_t n = 0; n < 256; ++n) {
+      uint32_t c = n;
+      for (int k = 0; k < 8; ++k) c = (c & 1) ? 0xedb88320u ^ (c >> 1) : c >> 1;
+      table[n] = c;
+    }
+    return table;
+  }();
+  uint32_t c = 0xffffffffu;
+  for (size_t i = at; i < at + size; ++i) {
+    c = kTable[(c ^ static_cast<uint8_t>(bytes[i])) & 0xff] ^ (c >> 8);
+  }
+  return c ^ 0xffffffffu;
+}
+
+std::string JpegReason(const std::string& bytes) {
+  size_t end = bytes.size();
+  while (end > 0) {
+    const unsigned char c = static_cast<unsigned char>(bytes[end - 1]);
+    if (c != 0 && c != ' ' && c != '\t' && c != '\r' && c != '\n') break;
+    --end;
+  }
+  if (end >= 4 && static_cast<uint8_t>(bytes[end - 2]) == 0xff &&
+      static_cast<uint8_t>(bytes[end - 1]) == 0xd9) {
+    return "";
+  }
+  return "truncated: the JPEG does not end with the end-of-image marker FF D9 (" +
+         std::to_string(bytes.size()) + " bytes)";
+}
+
+// Walks the chunk chain: a cut anywhere leaves the last chunk running past the end or no IEND.
+std::string PngReason(const std::string& bytes) {
+  size_t at = 8;
+  std::string last = "the signature";
+  while (at + 8 <= bytes.size()) {
+    const uint64_t length = BigEndian32(bytes, at);
+    const std::string type = bytes.substr(at + 4, 4);
+    const uint64_t end = at + 12 + length;
+    if (end > bytes.size()) {
+      return "truncated: the PNG chunk '" + type + "' at byte " + std::to_string(at) + " needs " +
+             std::to_string(end) + " bytes, the file has " + std::to_string(bytes.size());
+    }
+    // A critical chunk (upper-case first letter) whose CRC fails makes libpng fail the decode
+    // with a line of its own on stderr; ancillary chunks it skips with a warning, and so do we.
+    const uint32_t crc = BigEndian32(bytes, static_cast<size_t>(end) - 4);
+    if (std::isupper(static_cast<unsigned char>(type[0])) &&
+        Crc32(bytes, at + 4, static_cast<size_t>(length) + 4) != crc) {
+      return "damaged: the CRC of PNG chunk '" + type + "' at byte " + std::to_string(at) +
+             " does not match its data";
+    }
+    if (type == "IEND") return "";
+    last = "chunk '" + type + "'";
+    at = static_cast<size_t>(end);
+  }
+  return "truncated: the PNG ends after " + last + " without an IEND chunk (" +
+         std::to_string(bytes.size()) + " bytes)";
+}
+
+// Binary PGM / PPM: "P5" or "P6", width, height, maxval (whitespace and # comments between),
+// one whitespace byte, then the samples. A header that does not parse is left to the decoder.
+std::string PnmReason(const std::string& bytes) {
+  size_t at = 2;
+  uint64_t fields[3] = {0, 0, 0};
+  for (uint64_t& field : fields) {
+    while (at < bytes.size()) {
+      if (bytes[at] == '#') {
+        while (at < bytes.size() && bytes[at] != '\n') ++at;
+      } else if (std::isspace(static_cast<unsigned char>(bytes[at]))) {
+        ++at;
+      } else {
+        break;
+      }
+    }
+    const size_t digits = at;
+    while (at < bytes.size() && std::isdigit(static_cast<unsigned char>(bytes[at])) &&
+           at - digits < 9) {
+      field = field * 10 + static_cast<uint64_t>(bytes[at] - '0');
+      ++at;
+    }
+    if (at == digits || at >= bytes.size() || std::isdigit(static_cast<unsigned char>(bytes[at]))) {
+      return "";
+    }
+  }
+  if (!std::isspace(static_cast<unsigned char>(bytes[at])) || fields[2] == 0 || fields[2] > 65535) {
+    return "";
+  }
+  ++at;
+  const uint64_t channels = bytes[1] == '6' ? 3 : 1;
+  const uint64_t sample_bytes = fields[2] < 256 ? 1 : 2;
+  const uint64_t needed = fields[0] * fields[1] * channels * sample_bytes;
+  const uint64_t present = bytes.size() - at;
+  if (present >= needed) return "";
+  return "truncated: the " + std::string(bytes[1] == '6' ? "PPM" : "PGM") + " header asks for " +
+         std::to_string(needed) + " bytes of pixels, the file holds " + std::to_string(present);
+}
+
+std::string BmpReason(const std::string& bytes) {
+  if (bytes.size() < 6) return "truncated: the BMP ends inside its header";
+  const uint64_t declared = LittleEndian32(bytes, 2);
+  if (declared <= bytes.size()) return "";
+  return "truncated: the BMP header gives a size of " + std::to_string(declared) +
+         " bytes, the file has " + std::to_string(bytes.size());
+}
+
+}  // namespace
+
+std::string ImageFileDefect(const std::string& bytes) {
+  if (StartsWith(bytes, "\xff\xd8\xff", 3)) return JpegReason(bytes);
+  if (StartsWith(bytes, "\x89PNG\r\n\x1a\n", 8)) return PngReason(bytes);
+  if (StartsWith(bytes, "P5", 2) || StartsWith(bytes, "P6", 2)) return PnmReason(bytes);
+  if (StartsWith(bytes, "BM", 2)) return BmpReason(bytes);
+  return "";
+}
+
+cv::Mat ReadImageFile(const std::string& path, int flags, const std::string& what) {
+  std::ifstream in(path, std::ios::binary | std::ios::ate);
+  const std::streamoff size = in ? static_cast<std::streamoff>(in.tellg()) : -1;
+  if (size < 0) throw DataError("cannot read " + what + " " + path);
+  std::string bytes(static_cast<size_t>(size), '\0');
+  in.seekg(0);
+  if (!in.read(bytes.data(), size)) throw DataError("cannot read " + what + " " + path);
+  if (bytes.empty()) throw DataError("cannot decode " + what + " " + path + " (the file is empty)");
+  if (bytes.size() > static_cast<size_t>(std::numeric_limits<int>::max())) {
+    throw DataError(what + " " + path + " is too large to decode (" + std::to_string(bytes.size()) +
+                    " bytes)");
+  }
+  const std::string defect = ImageFileDefect(bytes);
+  if (!defect.empty()) throw DataError(what + " " + path + " is " + defect);
+  cv::Mat image;
+  try {
+    const cv::Mat buffer(1, static_cast<int>(bytes.size()), CV_8UC1, bytes.data());
+    image = cv::imdecode(buffer, flags);
+  } catch (const cv::Exception& e) {
+    throw DataError("cannot decode " + what + " " + path + ": " + e.msg);
+  }
+  if (image.empty()) {
+    throw DataError("cannot decode " + what + " " + path + " (corrupt or not an image)");
+  }
+  return image;
+}
+
+}  // namespace ieslam
