@@ -21,7 +21,9 @@ void PrepareOutputDirectory(const std::string& path) {
   std::error_code ec;
   std::filesystem::create_directories(path, ec);
   if (ec || !std::filesystem::is_directory(path)) {
-    throw OutputError("cannot create output directory " + path +
+    // A path that cannot be a directory is bad usage, as it always was; a directory that
+    // cannot be written is an output error.
+    throw ConfigError("cannot create output directory " + path +
                       (ec ? ": " + ec.message() : std::string(": a file is in the way")));
   }
   // A file made and removed: so that an unwritable directory stops the command before its

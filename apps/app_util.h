@@ -11,8 +11,8 @@
 
 namespace ieslam {
 
-// Creates OUT (and parents) and checks that a file can be made in it. Throws OutputError
-// naming it when it cannot be created, is a file or is not writable.
+// Creates OUT (and parents) and checks that a file can be made in it. Throws ConfigError
+// naming it when it cannot be created or is a file, OutputError when it is not writable.
 void PrepareOutputDirectory(const std::string& path);
 
 // The flags shared by commands that read a dataset, and their parsing.

@@ -68,7 +68,8 @@ int RefineCommand(const CommandArgs& args) {
     std::cout << FormatHelp("refine", "--run DIR --output OUT [flags]",
                             "Bundle-adjusts the keyframes and features of an earlier run\n"
                             "(DIR/ba_problem.txt) and writes refined.tum and report.json into OUT\n"
-                            "(refine_report.json when OUT is DIR: the run's report.json stays).\n"
+                            "(refine_refined.tum and refine_report.json when OUT is DIR: the\n"
+                            "run's own refined.tum and report.json stay as its report says).\n"
                             "With --dataset, the selected frames' range images are aligned\n"
                             "pairwise in the refinement (as `ieslam run --refine`).",
                             kRefineFlags);
@@ -87,17 +88,19 @@ int RefineCommand(const CommandArgs& args) {
     WarnAboutDataset("refine", *dataset);
   }
   PrepareOutputDirectory(out);
-  // Into the run's own directory the report goes beside the run's, which it must not replace.
+  // Into the run's own directory both files go beside the run's, which they must not replace:
+  // the run's report describes the run's refined.tum.
   std::error_code ec;
   const bool into_run = std::filesystem::equivalent(run, out, ec);
   const std::string report_name = into_run ? "refine_report.json" : "report.json";
+  const std::string refined_name = into_run ? "refine_refined.tum" : "refined.tum";
   const StoredRefinement refined = RefineStoredRun(run, dataset.get(), options);
   for (const std::string& warning : refined.warnings) PrintWarning("refine", warning);
-  // The report is the set's commit point: gone while refined.tum is replaced, written last.
-  RemoveStaleTempFiles(out, {"refined.tum", report_name});
+  // The report is the set's commit point: gone while the trajectory is replaced, written last.
+  RemoveStaleTempFiles(out, {refined_name, report_name});
   std::filesystem::remove(JoinPath(out, report_name), ec);
   if (ec) throw OutputError("cannot remove " + JoinPath(out, report_name) + ": " + ec.message());
-  WriteTumTrajectory(JoinPath(out, "refined.tum"), refined.refined,
+  WriteTumTrajectory(JoinPath(out, refined_name), refined.refined,
                      "ieslam bundle-adjusted keyframes");
   const Json report = StoredRefinementReport(run, flags.GetString("dataset", ""), options, refined);
   WriteTextAtomically(JoinPath(out, report_name), report.Dump() + "\n");

@@ -1,5 +1,6 @@
 // `ieslam run`: the main job.
 #include <cstdio>
+#include <functional>
 #include <iostream>
 
 #include "apps/app_util.h"
@@ -104,8 +105,12 @@ int RunCommand(const CommandArgs& args) {
     progress.Finish();
     WarnAboutSkippedFrames("run", run.frames_skipped);
     for (const std::string& warning : run.warnings) PrintWarning("run", warning);
-    WriteRunOutputs(output, *dataset, options, run, interrupt.Poll());
-    exit_code = interrupt.exit_code();
+    // The exit code says what the report says: a signal after report.json's last look at
+    // the flag finds every output written.
+    bool stopped_while_writing = false;
+    const std::function<bool()> poll = interrupt.Poll();
+    WriteRunOutputs(output, *dataset, options, run, [&] { return stopped_while_writing = poll(); });
+    exit_code = run.interrupted() || stopped_while_writing ? interrupt.exit_code() : 0;
   }
   PrintSummary(*dataset, options, run, output);
   if (exit_code != 0) {

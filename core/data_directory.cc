@@ -18,8 +18,8 @@ std::vector<std::string>& Candidates() {
 
 std::vector<std::string> DataDirectoryCandidates(const char* env_value,
                                                  const std::string& executable) {
+  if (env_value != nullptr && *env_value != '\0') return {env_value};
   std::vector<std::string> candidates;
-  if (env_value != nullptr && *env_value != '\0') candidates.emplace_back(env_value);
   if (!executable.empty()) {
     // IESLAM_DATA_DIR_FROM_BIN: the install's data directory relative to its bin directory.
     const std::filesystem::path bin = std::filesystem::path(executable).parent_path();

@@ -8,9 +8,11 @@
 
 namespace ieslam {
 
-// The places to search, in order: `env_value` ($IESLAM_DATA_DIR) when non-null and non-empty;
-// the installed layout relative to `executable` (<exe dir>/../share/ieslam for the default
-// install directories) when `executable` is non-empty; the source tree's data/ compiled in.
+// The places to search, in order: `env_value` ($IESLAM_DATA_DIR) when non-null and non-empty
+// (then the only place: a user who names a data directory is told when it is wrong, rather
+// than served another one); else the installed layout relative to `executable` (<exe
+// dir>/../share/ieslam for the default install directories) when `executable` is non-empty,
+// and the source tree's data/ compiled in.
 std::vector<std::string> DataDirectoryCandidates(const char* env_value,
                                                  const std::string& executable);
 

@@ -12,7 +12,6 @@
 #include "core/error.h"
 #include "core/file_util.h"
 #include "core/image_file.h"
-#include "core/input_file.h"
 #include "core/pair_dataset.h"
 #include "core/seven_scenes_dataset.h"
 #include "core/tum_dataset.h"
@@ -27,7 +26,6 @@ std::string SizeString(int width, int height) {
 // Reads an image, telling a missing file from one that is truncated or does not decode.
 cv::Mat ReadImage(const std::string& path, int flags, const std::string& what, int frame) {
   const std::string prefix = "frame " + std::to_string(frame) + ": ";
-  RequireRegularInputFile(path, prefix + what);  // a FIFO would block the read forever
   try {
     return ReadImageFile(path, flags, what);
   } catch (const DataError& e) {

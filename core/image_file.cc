@@ -3,13 +3,12 @@
 #include <array>
 #include <cctype>
 #include <cstdint>
-#include <fstream>
-#include <limits>
 #include <vector>
 
 #include <opencv2/imgcodecs.hpp>
 
 #include "core/error.h"
+#include "core/input_file.h"
 
 namespace ieslam {
 namespace {
@@ -48,18 +47,16 @@ uint32_t Crc32(const std::string& bytes, size_t at, size_t size) {
   return c ^ 0xffffffffu;
 }
 
+// Complete when an end-of-image marker follows the last start-of-scan: entropy-coded data
+// stuffs every FF byte, so neither marker occurs inside a scan, and a trailer after the image
+// (a second MPO frame, vendor data) leaves the image's own FF D9 before it.
 std::string JpegReason(const std::string& bytes) {
-  size_t end = bytes.size();
-  while (end > 0) {
-    const unsigned char c = static_cast<unsigned char>(bytes[end - 1]);
-    if (c != 0 && c != ' ' && c != '\t' && c != '\r' && c != '\n') break;
-    --end;
-  }
-  if (end >= 4 && static_cast<uint8_t>(bytes[end - 2]) == 0xff &&
-      static_cast<uint8_t>(bytes[end - 1]) == 0xd9) {
+  const size_t last_scan = bytes.rfind("\xff\xda", std::string::npos, 2);
+  if (last_scan != std::string::npos &&
+      bytes.find("\xff\xd9", last_scan + 2, 2) != std::string::npos) {
     return "";
   }
-  return "truncated: the JPEG does not end with the end-of-image marker FF D9 (" +
+  return "truncated: no end-of-image marker FF D9 after the last scan (" +
          std::to_string(bytes.size()) + " bytes)";
 }
 
@@ -148,17 +145,8 @@ std::string ImageFileDefect(const std::string& bytes) {
 }
 
 cv::Mat ReadImageFile(const std::string& path, int flags, const std::string& what) {
-  std::ifstream in(path, std::ios::binary | std::ios::ate);
-  const std::streamoff size = in ? static_cast<std::streamoff>(in.tellg()) : -1;
-  if (size < 0) throw DataError("cannot read " + what + " " + path);
-  std::string bytes(static_cast<size_t>(size), '\0');
-  in.seekg(0);
-  if (!in.read(bytes.data(), size)) throw DataError("cannot read " + what + " " + path);
+  const std::string bytes = ReadInputFile(path, what, kMaxImageBytes);
   if (bytes.empty()) throw DataError("cannot decode " + what + " " + path + " (the file is empty)");
-  if (bytes.size() > static_cast<size_t>(std::numeric_limits<int>::max())) {
-    throw DataError(what + " " + path + " is too large to decode (" + std::to_string(bytes.size()) +
-                    " bytes)");
-  }
   const std::string defect = ImageFileDefect(bytes);
   if (!defect.empty()) throw DataError(what + " " + path + " is " + defect);
   cv::Mat image;

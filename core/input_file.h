@@ -10,9 +10,11 @@
 
 namespace ieslam {
 
-// No size bound, for inputs whose size the reader does not hold in memory (images, which
-// the decoder bounds by their header).
+// No size bound, for inputs whose size the reader does not hold in memory.
 constexpr std::uintmax_t kNoSizeBound = std::numeric_limits<std::uintmax_t>::max();
+// An image is read whole before it is decoded: an uncompressed 8K 16-bit RGB frame is about
+// 200 MB, so 256 MiB holds any camera's frame and keeps a mislabelled huge file out of memory.
+constexpr std::uintmax_t kMaxImageBytes = std::uintmax_t{256} << 20;
 
 // Caps by kind of input (a YAML file's is kMaxYamlBytes in core/yaml_text.h). A TUM image
 // list or trajectory line is under 100 bytes, so 1 GiB is ten million frames, days of video

@@ -99,8 +99,10 @@ EvaluationResult EvaluateTrajectoryFiles(const std::string& gt_path, const std::
 
 std::string FormatEvaluation(const EvaluationResult& result) {
   std::string out;
+  // What cannot be computed keeps its pairs line (how many pairs there were) and loses its
+  // numbers; the reason is the caller's to print.
+  out += "ate.pairs " + std::to_string(result.ate.translation.count) + "\n";
   if (result.ate_unavailable.empty()) {
-    out += "ate.pairs " + std::to_string(result.ate.translation.count) + "\n";
     AppendLine("ate.rmse", result.ate.translation.rmse, &out);
     AppendLine("ate.mean", result.ate.translation.mean, &out);
     AppendLine("ate.median", result.ate.translation.median, &out);
@@ -108,8 +110,8 @@ std::string FormatEvaluation(const EvaluationResult& result) {
     AppendLine("ate.min", result.ate.translation.min, &out);
     AppendLine("ate.max", result.ate.translation.max, &out);
   }
+  out += "rpe.pairs " + std::to_string(result.rpe.translation.count) + "\n";
   if (result.rpe_unavailable.empty()) {
-    out += "rpe.pairs " + std::to_string(result.rpe.translation.count) + "\n";
     AppendLine("rpe.trans.rmse", result.rpe.translation.rmse, &out);
     AppendLine("rpe.rot.rmse", result.rpe.rotation.rmse, &out);
   }
@@ -134,9 +136,15 @@ std::string EvaluationToJson(const EvaluationResult& result) {
       .Set("delta", Json::BareDouble(options.delta))
       .Set("delta_unit", DeltaUnitName(options.delta_unit));
   Json json = Json::Object();
-  json.Set("ate", result.ate_unavailable.empty() ? ate : Json())
-      .Set("rpe", result.rpe_unavailable.empty() ? rpe : Json())
-      .Set("options", json_options);
+  if (!result.ate_unavailable.empty())
+    ate = Json::Object().Set("pairs", result.ate.translation.count);
+  if (!result.rpe_unavailable.empty()) {
+    rpe = Json::Object()
+              .Set("pairs", result.rpe.translation.count)
+              .Set("trans", Json())
+              .Set("rot", Json());
+  }
+  json.Set("ate", ate).Set("rpe", rpe).Set("options", json_options);
   Json unavailable = Json::Object();
   if (!result.ate_unavailable.empty()) unavailable.Set("ate", result.ate_unavailable);
   if (!result.rpe_unavailable.empty()) unavailable.Set("rpe", result.rpe_unavailable);

@@ -101,26 +101,43 @@ RunResult RunOnDataset(const Dataset& dataset, const RunOptions& options,
   const RunOptions used = options.Resolved();
   RgbdFrameSource source(dataset, used.source);
   if (used.build_map) run.map.emplace(used.map);
+  // A stop the selection obeyed ends the selection only: the frames it processed are still
+  // mapped and refined (a second signal ends the process). The later stages obey a stop
+  // that comes after the selection's end.
+  bool selection_stopped = false;
+  PipelineHooks pipeline_hooks = hooks;
+  if (hooks.stop) {
+    pipeline_hooks.stop = [&] { return selection_stopped = selection_stopped || hooks.stop(); };
+  }
+  const std::function<bool()> loader_stop = [&] {
+    return !selection_stopped && hooks.stop && hooks.stop();
+  };
   // With depth alignment, each selected frame is loaded once for both the map and its cloud.
   bool map_built = false;
   const RangeCloudLoader clouds = [&](const std::vector<int>& frames,
                                       const std::vector<std::optional<Eigen::Isometry3d>>& T_w_c) {
     RangeClouds loaded;
     LoadSelectedFrames(dataset, frames, T_w_c, used.range_cloud, run.map ? &*run.map : nullptr,
-                       &loaded, hooks.stop, &run.stopped_after_selection, &run.warnings);
+                       &loaded, loader_stop, &run.stopped_after_selection, &run.warnings);
     map_built = true;
     return loaded;
   };
-  run.pipeline = RunPipeline(&source, dataset.rig().colour, used.pipeline, hooks, clouds);
+  run.pipeline = RunPipeline(&source, dataset.rig().colour, used.pipeline, pipeline_hooks, clouds);
   run.frontend = source.timings();
   CollectTrajectories(dataset, &run);
   if (run.map && !map_built) {
+    const bool selection_interrupted = run.pipeline.selection.interrupted;
+    const std::function<bool()> map_stop = [&] {
+      return !selection_interrupted && hooks.stop && hooks.stop();
+    };
     LoadSelectedFrames(dataset, run.pipeline.selection.selected, run.pipeline.T_w_c,
-                       used.range_cloud, &*run.map, nullptr, hooks.stop,
-                       &run.stopped_after_selection, &run.warnings);
+                       used.range_cloud, &*run.map, nullptr, map_stop, &run.stopped_after_selection,
+                       &run.warnings);
   }
   // A stop in the refinement or the map, where the selection no longer polls.
-  if (hooks.stop && hooks.stop()) run.stopped_after_selection = true;
+  if (!run.pipeline.selection.interrupted && hooks.stop && hooks.stop()) {
+    run.stopped_after_selection = true;
+  }
   if (run.pipeline.refinement && !run.pipeline.refinement->ok()) {
     run.warnings.push_back("no refinement: " + run.pipeline.refinement->failure +
                            "; refined.tum is not written");

@@ -51,7 +51,8 @@ PipelineResult RunPipeline(FrameSource* source, const PinholeCamera& camera,
   const bool align = clouds != nullptr && options.depth_alignment.rounds > 0;
   if (align) loaded = clouds(result.selection.selected, result.T_w_c);
   BundleAdjustmentOptions ba = options.ba;
-  if (!ba.stop) ba.stop = hooks.stop;
+  // A stop the selection obeyed ends the selection only; the refinement obeys a later one.
+  if (!ba.stop && !result.selection.interrupted) ba.stop = hooks.stop;
   result.refinement = Refine(result.problem, camera, result.estimate, ba, options.depth_alignment,
                              align ? &loaded : nullptr);
   return result;

@@ -77,7 +77,7 @@ const std::vector<std::string>& RunOutputNames() {
   static const std::vector<std::string> names = {
       "keyframes.tum",  "trajectory.tum",         "selected_frames.txt", "groundtruth.tum",
       "ba_problem.txt", "information_blocks.txt", "refined.tum",         "map.ply",
-      "report.json",    "refine_report.json"};
+      "report.json",    "refine_report.json",     "refine_refined.tum"};
   return names;
 }
 
@@ -85,6 +85,13 @@ void WriteRunOutputs(const std::string& out, const Dataset& dataset, const RunOp
                      const RunResult& run, const std::function<bool()>& stop) {
   const PipelineResult& p = run.pipeline;
   RemoveStaleTempFiles(out, RunOutputNames());
+  // Files of the set this run does not write are an earlier run's only where one was: a
+  // directory that held no run keeps them (they are the user's).
+  const std::string marker = JoinPath(out, kRunOutputMarker);
+  std::error_code ec;
+  const bool earlier_run = std::filesystem::exists(JoinPath(out, "report.json"), ec) ||
+                           std::filesystem::exists(marker, ec);
+  WriteTextAtomically(marker, "ieslam run outputs\n");
   RemoveOutput(JoinPath(out, "report.json"));
   std::set<std::string> written = {"keyframes.tum", "trajectory.tum", "selected_frames.txt",
                                    "report.json"};
@@ -93,7 +100,7 @@ void WriteRunOutputs(const std::string& out, const Dataset& dataset, const RunOp
   if (run.refined()) written.insert("refined.tum");
   if (run.map) written.insert("map.ply");
   for (const std::string& name : RunOutputNames()) {
-    if (!written.count(name)) RemoveOutput(JoinPath(out, name));
+    if (earlier_run && !written.count(name)) RemoveOutput(JoinPath(out, name));
   }
   WriteTumTrajectory(JoinPath(out, "keyframes.tum"), run.keyframes,
                      "ieslam keyframes (filter estimate)");

@@ -4,10 +4,11 @@
 // map.ply (with a map) and report.json, each written atomically.
 //
 // The set is consistent too: report.json, the set's commit point, is removed first and
-// written last, so that a set without it is one a run did not finish; the files of the set
-// this run does not write (an earlier run's refined.tum) are removed before it, and so is
-// `ieslam refine`'s refine_report.json, which was about the earlier problem. Files of other
-// names are never touched.
+// written last, so that a set without it is one a run did not finish. Where the directory
+// held a run before (its report.json, or kRunOutputMarker, which every run leaves), the
+// files of the set this run does not write (an earlier run's refined.tum, `ieslam refine`'s
+// refine_report.json and refine_refined.tum) are removed before it; in any other directory
+// files of those names are the user's and stay. Files of other names are never touched.
 #pragma once
 
 #include <functional>
@@ -19,7 +20,10 @@
 
 namespace ieslam {
 
-// Every name a run may write into its directory, and refine_report.json.
+// The empty file that marks a directory as holding a run's outputs.
+inline constexpr char kRunOutputMarker[] = ".ieslam_run";
+
+// Every name a run may write into its directory, and what `ieslam refine` writes beside them.
 const std::vector<std::string>& RunOutputNames();
 
 // Writes `run` into the existing directory `out`, first removing the temp files of these names

@@ -129,7 +129,9 @@ Json RunReport(const Dataset& dataset, const RunOptions& options, const RunResul
     if (ate.is_object()) report.Set("ate_rmse_m", ate);
   }
   if (refine) {
-    report.Set("filter_vs_smoother", p.refinement ? RefinementToJson(*p.refinement) : Json());
+    // A failed or interrupted refinement compares nothing: null, with the reason beside it.
+    report.Set("filter_vs_smoother",
+               p.refinement && p.refinement->ok() ? RefinementToJson(*p.refinement) : Json());
     if (p.refinement && !p.refinement->ok()) report.Set("refinement_failed", p.refinement->failure);
   }
   if (p.has_estimate) report.Set("keyframe_sigmas", PoseSigmasToJson(p.estimate, run.timestamps));

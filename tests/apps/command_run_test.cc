@@ -238,36 +238,40 @@ TEST_F(CommandRunTest, SigtermStopsARefiningRunWith143AndNoRefinedTrajectory) {
   }
 }
 
-// The output directory is checked before the work: exit 4, not 3 (the input is fine).
-TEST_F(CommandRunTest, AnOutputDirectoryThatCannotBeMadeIsExit4BeforeTheWork) {
+// The output directory is checked before the work: a path that cannot be a directory is bad
+// usage (exit 2), found before any frame is read.
+TEST_F(CommandRunTest, AnOutputDirectoryThatCannotBeMadeIsExit2BeforeTheWork) {
   const fs::path file = root_ / "a_file";
   std::ofstream(file) << "in the way\n";
   const testing_apps::CommandResult result = testing_apps::RunIeslam(
       "run --dataset " + (root_ / "synthetic").string() + " --output " + (file / "out").string());
-  EXPECT_EQ(result.exit_code, 4) << result.output;
+  EXPECT_EQ(result.exit_code, 2) << result.output;
   EXPECT_NE(result.output.find("cannot create output directory " + (file / "out").string()),
             std::string::npos)
       << result.output;
   EXPECT_EQ(result.output.find("frames selected"), std::string::npos) << result.output;
 }
 
-// `refine --output` the run's own directory keeps the run's report; a later run without
-// --refine into it leaves no refined.tum or refine report of the earlier problem.
+// `refine --output` the run's own directory keeps the run's files; a later run without
+// --refine into it leaves no refinement of the earlier problem.
 TEST_F(CommandRunTest, RefineIntoTheRunsDirectoryKeepsItsReportAndARerunClearsTheRefinement) {
   const fs::path out = root_ / "refine_in_place";
   const std::string run_command = "run --quiet --threads 1 --dataset " +
                                   (root_ / "synthetic").string() + " --output " + out.string();
-  ASSERT_EQ(testing_apps::RunIeslam(run_command).exit_code, 0);
+  ASSERT_EQ(testing_apps::RunIeslam(run_command + " --refine").exit_code, 0);
   const std::string run_report = ReadFile(out / "report.json");
+  const std::string run_refined = ReadFile(out / "refined.tum");
   const testing_apps::CommandResult refine =
       testing_apps::RunIeslam("refine --run " + out.string() + " --output " + out.string());
   ASSERT_EQ(refine.exit_code, 0) << refine.output;
   EXPECT_EQ(ReadFile(out / "report.json"), run_report);
   EXPECT_NE(ReadFile(out / "refine_report.json").find("\"filter_vs_smoother\""), std::string::npos);
-  EXPECT_TRUE(fs::is_regular_file(out / "refined.tum"));
+  EXPECT_EQ(ReadFile(out / "refined.tum"), run_refined);
+  EXPECT_TRUE(fs::is_regular_file(out / "refine_refined.tum"));
   ASSERT_EQ(testing_apps::RunIeslam(run_command).exit_code, 0);
   EXPECT_FALSE(fs::exists(out / "refined.tum"));
   EXPECT_FALSE(fs::exists(out / "refine_report.json"));
+  EXPECT_FALSE(fs::exists(out / "refine_refined.tum"));
   EXPECT_TRUE(fs::is_regular_file(out / "report.json"));
 }
 

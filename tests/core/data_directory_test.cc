@@ -16,17 +16,19 @@ namespace {
 
 namespace fs = std::filesystem;
 
-TEST(DataDirectoryCandidates, EnvironmentThenInstallBesideTheExecutableThenSourceTree) {
+TEST(DataDirectoryCandidates, EnvironmentAloneElseInstallBesideTheExecutableThenSourceTree) {
   const std::vector<std::string> alone = DataDirectoryCandidates(nullptr, "");
   ASSERT_EQ(alone.size(), 1u);
   EXPECT_EQ(alone[0], std::string(IESLAM_SOURCE_DIR) + "/data");
   EXPECT_EQ(DataDirectoryCandidates("", ""), alone);  // an empty variable is no variable
 
-  const std::vector<std::string> all = DataDirectoryCandidates("/opt/data", "/usr/bin/ieslam");
-  ASSERT_EQ(all.size(), 3u);
-  EXPECT_EQ(all[0], "/opt/data");
-  EXPECT_EQ(all[1], "/usr/share/ieslam");
-  EXPECT_EQ(all[2], alone[0]);
+  // A directory the user names is the only place: a wrong one is an error, not a fallback.
+  EXPECT_EQ(DataDirectoryCandidates("/opt/data", "/usr/bin/ieslam"),
+            std::vector<std::string>{"/opt/data"});
+  const std::vector<std::string> all = DataDirectoryCandidates(nullptr, "/usr/bin/ieslam");
+  ASSERT_EQ(all.size(), 2u);
+  EXPECT_EQ(all[0], "/usr/share/ieslam");
+  EXPECT_EQ(all[1], alone[0]);
 }
 
 // A fake install tree under a fresh directory: prefix/bin, prefix/share/ieslam/calib.
@@ -54,10 +56,14 @@ TEST_F(DataDirectoryTest, TheFirstPlaceWithCalibWins) {
   const std::string empty = (root_ / "empty").string();
   const std::string installed = (root_ / "prefix/share/ieslam").string();
   const std::string executable = (root_ / "prefix/bin/ieslam").string();
-  EXPECT_EQ(FindDataDirectory(DataDirectoryCandidates(empty.c_str(), executable)), installed);
+  EXPECT_EQ(FindDataDirectory(DataDirectoryCandidates(nullptr, executable)), installed);
+  EXPECT_EQ(FindDataDirectory({empty, installed}), installed);
   // The source tree's data/ is the last resort.
-  EXPECT_EQ(FindDataDirectory(DataDirectoryCandidates(empty.c_str(), "")),
+  EXPECT_EQ(FindDataDirectory(DataDirectoryCandidates(nullptr, "")),
             std::string(IESLAM_SOURCE_DIR) + "/data");
+  // A named directory without calib/ is an error naming it.
+  ExpectConfigError([&] { FindDataDirectory(DataDirectoryCandidates(empty.c_str(), executable)); },
+                    "looked in: " + empty);
 
   SetDataDirectoryCandidates(DataDirectoryCandidates(nullptr, executable));
   EXPECT_EQ(DefaultCalibrationPath("tum_fr1"), installed + "/calib/tum_fr1.yaml");

@@ -38,6 +38,8 @@ TEST(ImageFileDefect, WholeFilesPass) {
   // Padding after the end marker, and bytes after IEND, are not a truncation.
   EXPECT_EQ(ImageFileDefect(Encode(".jpg", Pattern(CV_8UC3)) + std::string(7, '\0')), "");
   EXPECT_EQ(ImageFileDefect(Encode(".jpg", Pattern(CV_8UC3)) + "\r\n"), "");
+  // A trailer after the image (vendor data, a second MPO frame's header).
+  EXPECT_EQ(ImageFileDefect(Encode(".jpg", Pattern(CV_8UC3)) + "\xff\xd8\xff\xe1trailer"), "");
   EXPECT_EQ(ImageFileDefect(Encode(".png", Pattern(CV_8UC3)) + "trailer"), "");
   // Not an image format with a check: left to the decoder.
   EXPECT_EQ(ImageFileDefect("not an image"), "");
@@ -122,8 +124,7 @@ TEST_F(ImageFileTest, EmptyGarbageAndMissingFilesAreErrorsNamingTheFile) {
   const std::string garbage = Write("garbage.png", "not an image at all");
   ExpectDataError([&] { ReadImageFile(garbage, cv::IMREAD_COLOR); }, garbage);
   const std::string missing = (dir_ / "missing.png").string();
-  ExpectDataError([&] { ReadImageFile(missing, cv::IMREAD_COLOR); },
-                  "cannot read image " + missing);
+  ExpectDataError([&] { ReadImageFile(missing, cv::IMREAD_COLOR); }, "image not found: " + missing);
 }
 
 }  // namespace

@@ -54,16 +54,20 @@ TEST(EvaluationIo, FormatAndJsonCarryTheNumbers) {
             ReadTumTrajectoryForEvaluation(kTumEvalDir + "fr2_desk_ORB.txt").size());
 }
 
-TEST(EvaluationIo, WhatCouldNotBeComputedIsLeftOutWithItsReason) {
+TEST(EvaluationIo, WhatCouldNotBeComputedKeepsItsPairCountAndItsReason) {
   EvaluationResult result;
   result.ate.translation = {3, 0.5, 0.25, 0.125, 1.0, 0.0, 2.0};
   result.rpe_unavailable = "only 0 relative-pose pairs";
   const std::string text = FormatEvaluation(result);
   EXPECT_EQ(text.rfind("ate.pairs 3\n", 0), 0u) << text;
   EXPECT_NE(text.find("ate.max 2.000000\n"), std::string::npos) << text;
-  EXPECT_EQ(text.find("rpe."), std::string::npos) << text;
+  EXPECT_NE(text.find("rpe.pairs 0\n"), std::string::npos) << text;
+  EXPECT_EQ(text.find("rpe.trans"), std::string::npos) << text;
   const std::string json = EvaluationToJson(result);
-  EXPECT_NE(json.find("\"rpe\": null,"), std::string::npos) << json;
+  EXPECT_NE(
+      json.find("\"rpe\": {\n    \"pairs\": 0,\n    \"trans\": null,\n    \"rot\": null\n  },"),
+      std::string::npos)
+      << json;
   EXPECT_NE(json.find("\"unavailable\": {\n    \"rpe\": \"only 0 relative-pose pairs\""),
             std::string::npos)
       << json;

@@ -130,6 +130,23 @@ TEST_F(DatasetRunTest, StopRequestEndsTheRunAndStillWritesItsOutputs) {
   EXPECT_TRUE(fs::is_regular_file(root_ / "stopped" / "trajectory.tum"));
 }
 
+// A stop the selection obeyed ends the selection only, though the request stays raised: the
+// frames it processed are still mapped and refined.
+TEST_F(DatasetRunTest, AStopDuringSelectionStillMapsAndRefinesWhatWasProcessed) {
+  RunOptions options = Options();
+  options.pipeline.refine = true;
+  int polls = 0;
+  PipelineHooks hooks;
+  hooks.stop = [&polls] { return ++polls > 8; };
+  const RunResult run = Run(options, "stopped_selecting", hooks);
+  EXPECT_TRUE(run.pipeline.selection.interrupted);
+  EXPECT_LT(run.frames_processed(), 36);
+  EXPECT_TRUE(run.refined()) << (run.pipeline.refinement ? run.pipeline.refinement->failure : "");
+  ASSERT_TRUE(run.map.has_value());
+  EXPECT_GT(run.map->size(), 0u);
+  EXPECT_TRUE(fs::is_regular_file(root_ / "stopped_selecting" / "refined.tum"));
+}
+
 // The same sequence with frames [first, last) cut out: a jump the front end must recover from.
 void WriteWithGap(const fs::path& source, const fs::path& target, int first, int last) {
   fs::create_directories(target);

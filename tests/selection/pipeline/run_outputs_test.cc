@@ -118,7 +118,8 @@ TEST_F(RunOutputsTest, DeadReckoningWritesNoProblem) {
 TEST_F(RunOutputsTest, AnEarlierRunsFilesThisRunDoesNotWriteAreRemoved) {
   RunOptions options = Options();
   options.build_map = false;
-  for (const char* name : {"refined.tum", "map.ply", "refine_report.json", "notes.txt"}) {
+  for (const char* name :
+       {"report.json", "refined.tum", "map.ply", "refine_report.json", "notes.txt"}) {
     std::ofstream(out_ / name) << "an earlier run's\n";
   }
   // No process has a pid above the kernel's pid_max (at most 2^22).
@@ -135,6 +136,20 @@ TEST_F(RunOutputsTest, AnEarlierRunsFilesThisRunDoesNotWriteAreRemoved) {
   EXPECT_TRUE(fs::exists(out_ / "notes.txt"));
   EXPECT_TRUE(fs::exists(out_ / "map.ply.tmp.x"));
   EXPECT_TRUE(fs::exists(out_ / alive));
+}
+
+// In a directory that held no run, files of the run's names it does not write are the user's.
+TEST_F(RunOutputsTest, ADirectoryThatHeldNoRunKeepsItsFiles) {
+  RunOptions options = Options();
+  options.build_map = false;
+  std::ofstream(out_ / "map.ply") << "the user's\n";
+  RunAndWrite(options);
+  EXPECT_TRUE(fs::is_regular_file(out_ / "report.json"));
+  EXPECT_EQ(ReadFile(out_ / "map.ply"), "the user's\n");
+  EXPECT_TRUE(fs::exists(out_ / kRunOutputMarker));
+  // The directory holds a run now: the next run clears what it does not write.
+  RunAndWrite(options);
+  EXPECT_FALSE(fs::exists(out_ / "map.ply"));
 }
 
 // A refinement that failed writes no refined.tum and says why in the report.
