@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <iterator>
 #include <sstream>
 #include <string>
 
@@ -12,6 +13,29 @@
 #include "core/input_file.h"
 
 namespace ieslam {
+
+std::optional<Eigen::Isometry3d> InterpolatePose(const Trajectory& trajectory, double timestamp,
+                                                 double max_gap_s) {
+  constexpr double kSameStamp = 1e-6;
+  const auto after =
+      std::lower_bound(trajectory.begin(), trajectory.end(), timestamp,
+                       [](const TimedPose& pose, double t) { return pose.timestamp < t; });
+  if (after != trajectory.end() && after->timestamp - timestamp < kSameStamp) return after->T_w_c;
+  if (after != trajectory.begin() && timestamp - std::prev(after)->timestamp < kSameStamp) {
+    return std::prev(after)->T_w_c;
+  }
+  if (after == trajectory.begin() || after == trajectory.end()) return std::nullopt;
+  const TimedPose& a = *std::prev(after);
+  const TimedPose& b = *after;
+  if (b.timestamp - a.timestamp > max_gap_s) return std::nullopt;
+  const double s = (timestamp - a.timestamp) / (b.timestamp - a.timestamp);
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = Eigen::Quaterniond(a.T_w_c.linear())
+                   .slerp(s, Eigen::Quaterniond(b.T_w_c.linear()))
+                   .toRotationMatrix();
+  T.translation() = (1.0 - s) * a.T_w_c.translation() + s * b.T_w_c.translation();
+  return T;
+}
 
 TimedPose ParseTumPoseLine(std::string line, const std::string& where) {
   std::replace(line.begin(), line.end(), ',', ' ');

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <istream>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -16,6 +17,13 @@ struct TimedPose {
 };
 
 using Trajectory = std::vector<TimedPose>;
+
+// The pose at `timestamp` between the two samples around it (translation linearly, rotation
+// by slerp; a sample within 1 us of `timestamp` as it is). nullopt outside the trajectory or
+// where those samples are more than `max_gap_s` apart: a ground truth with a dropout does not
+// vouch for the poses inside it. `trajectory` is sorted by time.
+std::optional<Eigen::Isometry3d> InterpolatePose(const Trajectory& trajectory, double timestamp,
+                                                 double max_gap_s);
 
 // One pose line `t tx ty tz qx qy qz qw` (commas count as spaces, as in TUM's tools). Throws
 // DataError prefixed with `where` (file:line) for missing or non-numeric values, NaN/inf, or a

@@ -28,6 +28,21 @@ double Ate(const Trajectory& gt_read_back, const Trajectory& est, const std::str
   }
 }
 
+// `estimate`'s covariances against the ground truth; nullopt when no pose could be compared.
+// Ground truth is interpolated over gaps up to twice the ATE's association window: two
+// samples each within the window of a frame's stamp.
+std::optional<PoseConsistency> Consistency(const Trajectory& ground_truth,
+                                           const std::map<int, double>& timestamps,
+                                           const SlamEstimate& estimate) {
+  if (estimate.pose_covariances.empty()) return std::nullopt;
+  const double max_gap_s = 2.0 * EvaluationOptions().max_diff_s;
+  const PoseConsistency c = EvaluatePoseConsistency(
+      estimate.poses, estimate.pose_covariances,
+      TruthInEstimateFrame(ground_truth, timestamps, estimate.poses, max_gap_s));
+  if (c.poses == 0) return std::nullopt;
+  return c;
+}
+
 // Loads each of `frames` once, in the given order, into the dense map (at its pose in
 // `T_w_c`) and, when `clouds` is set, as a range cloud. A frame that cannot be loaded again,
 // or whose range image gives no cloud, is left out with a warning. Stops early, setting
@@ -149,6 +164,13 @@ RunResult RunOnDataset(const Dataset& dataset, const RunOptions& options,
     if (run.refined()) {
       run.ate_refined_m = Ate(gt, RefinedTrajectory(*run.pipeline.refinement, run.timestamps),
                               "refined.tum", &run.warnings);
+    }
+    if (run.pipeline.has_estimate) {
+      run.consistency_filter = Consistency(run.ground_truth, run.timestamps, run.pipeline.estimate);
+    }
+    if (run.refined()) {
+      run.consistency_refined = Consistency(run.ground_truth, run.timestamps,
+                                            SmootherEstimate(run.pipeline.refinement->refined()));
     }
   }
   return run;

@@ -11,6 +11,7 @@
 #include <utility>
 #include <vector>
 
+#include "backend/evaluation/consistency.h"
 #include "core/dataset.h"
 #include "core/json.h"
 #include "core/range_cloud.h"
@@ -41,6 +42,11 @@ struct RunResult {
   double ate_keyframes_m = -1.0;
   double ate_trajectory_m = -1.0;
   double ate_refined_m = -1.0;
+  // The stated pose covariances against the ground truth (same origin as the estimate, no
+  // alignment fitted): the filter's, and the refinement's when it computed them
+  // (ba.compute_covariances); nullopt where there is nothing to compare.
+  std::optional<PoseConsistency> consistency_filter;
+  std::optional<PoseConsistency> consistency_refined;
   std::chrono::steady_clock::time_point started;
   std::vector<std::string> warnings;  // things the user should hear about, one line each
 

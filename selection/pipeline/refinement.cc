@@ -29,10 +29,13 @@ Json SolverToJson(const BundleAdjustmentResult& r) {
       .Set("iterations", r.iterations)
       .Set("residuals", r.num_residuals)
       .Set("rejected_observations", static_cast<int>(r.rejected.size()))
+      .Set("rejected_share",
+           r.observations > 0 ? static_cast<double>(r.rejected.size()) / r.observations : 0.0)
       .Set("rejection_variance_factor", r.rejection_variance_factor)
       .Set("residual_check", ResidualCheckToJson(r.residual_check))
       .Set("termination", r.termination)
-      .Set("seconds", r.solve_time_s);
+      .Set("seconds", r.solve_time_s)
+      .Set("covariance_seconds", r.covariance_time_s);
 }
 
 Json DepthAlignmentToJson(const Refinement& refinement) {

@@ -69,6 +69,30 @@ Json AteToJson(const RunResult& run, bool refine) {
   return ate.empty() ? Json() : ate;
 }
 
+Json ConsistencyToJson(const PoseConsistency& c) {
+  const auto six = [](const Vector6d& v) {
+    return Json::ArrayOf(std::vector<double>(v.data(), v.data() + 6));
+  };
+  Json per_keyframe = Json::Array();
+  for (const PoseConsistency::Pose& pose : c.per_pose) {
+    per_keyframe.Push(Json::Object()
+                          .Set("frame", pose.frame)
+                          .Set("error", six(pose.error))
+                          .Set("sigma", six(pose.sigma))
+                          .Set("nees", pose.nees));
+  }
+  return Json::Object()
+      .Set("keyframes", c.poses)
+      .Set("inside_2sigma", c.inside_2sigma)
+      .Set("inside_2sigma_per_axis",
+           Json::ArrayOf(std::vector<double>(c.inside_2sigma_per_axis.begin(),
+                                             c.inside_2sigma_per_axis.end())))
+      .Set("median_error_over_sigma", c.median_error_over_sigma)
+      .Set("mean_nees", c.mean_nees)
+      .Set("nees_band", Json::ArrayOf(std::vector<double>{c.nees_band.first, c.nees_band.second}))
+      .Set("per_keyframe", per_keyframe);
+}
+
 }  // namespace
 
 std::vector<int> SourceIndices(const Dataset& dataset, const std::vector<int>& frames) {
@@ -127,6 +151,13 @@ Json RunReport(const Dataset& dataset, const RunOptions& options, const RunResul
   if (dataset.has_ground_truth()) {
     const Json ate = AteToJson(run, refine);
     if (ate.is_object()) report.Set("ate_rmse_m", ate);
+    Json consistency = Json::Object();
+    if (run.consistency_filter)
+      consistency.Set("filter", ConsistencyToJson(*run.consistency_filter));
+    if (run.consistency_refined) {
+      consistency.Set("refined", ConsistencyToJson(*run.consistency_refined));
+    }
+    if (!consistency.empty()) report.Set("consistency", consistency);
   }
   if (refine) {
     // A failed or interrupted refinement compares nothing: null, with the reason beside it.

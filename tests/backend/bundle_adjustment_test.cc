@@ -410,6 +410,33 @@ TEST(BundleAdjustmentTest, NoisyProblemReachesTheChiSquareCostAndBeatsTheStart) 
   EXPECT_LT(mean_nees, 20.0);
 }
 
+// The Schur complement's pose covariances are ceres::Covariance's (the sparse QR of the same
+// Jacobian), with and without a robust loss; the anchor's is zero in both.
+TEST(BundleAdjustmentTest, SchurCovariancesEqualCeresCovariance) {
+  std::mt19937 rng(6);
+  const TestScene scene = MakeTestScene(8, 80, &rng);
+  const BundleAdjustmentProblem problem = MakeTestProblem(scene, 0.03, 0.02, 0.05, true, &rng);
+  for (const BaRobustLoss loss : {BaRobustLoss::kNone, BaRobustLoss::kHuber}) {
+    BundleAdjustmentOptions options;
+    options.compute_covariances = true;
+    options.robust_loss = loss;
+    const BundleAdjustmentResult schur = SolveBundleAdjustment(problem, scene.camera, options);
+    options.covariance_method = BaCovariance::kSparseQr;
+    const BundleAdjustmentResult qr = SolveBundleAdjustment(problem, scene.camera, options);
+    ASSERT_TRUE(schur.covariance_error.empty()) << schur.covariance_error;
+    ASSERT_TRUE(qr.covariance_error.empty()) << qr.covariance_error;
+    ASSERT_EQ(schur.pose_covariances.size(), scene.poses.size());
+    ASSERT_EQ(qr.pose_covariances.size(), scene.poses.size());
+    for (const auto& [frame_id, P] : qr.pose_covariances) {
+      EXPECT_LE((schur.pose_covariances.at(frame_id) - P).norm(), 1e-8 * (1e-12 + P.norm()))
+          << "frame " << frame_id << ", loss " << BaRobustLossName(loss);
+      EXPECT_LE((schur.pose_covariances_euler.at(frame_id) - qr.pose_covariances_euler.at(frame_id))
+                    .norm(),
+                1e-8 * (1e-12 + P.norm()));
+    }
+  }
+}
+
 // The residual check without ground truth: with Q right (the noise drawn from it), each
 // component's robust sigma comes out near sqrt(redundancy); with Q claiming twice the noise,
 // exactly half of that (the solution is the same, each error is measured in a doubled sigma).

@@ -124,5 +124,25 @@ TEST_F(TrajectoryTest, HugeValuesAreWrittenWholeAndReadBack) {
   EXPECT_EQ(back.timestamp, 1305031449.8096);
 }
 
+// Between two samples: the translation on the line, the rotation on the geodesic; a stamp on a
+// sample is that sample; outside or across a gap: nothing.
+TEST(InterpolatePoseTest, SlerpsBetweenSamplesAndRefusesGapsAndTheOutside) {
+  Eigen::Isometry3d a = Eigen::Isometry3d::Identity(), b = Eigen::Isometry3d::Identity();
+  b.linear() = Eigen::AngleAxisd(0.4, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  b.translation() = Eigen::Vector3d(1.0, -2.0, 0.5);
+  const Trajectory trajectory = {{1.0, a}, {1.02, b}, {2.0, a}};
+  const std::optional<Eigen::Isometry3d> quarter = InterpolatePose(trajectory, 1.005, 0.05);
+  ASSERT_TRUE(quarter.has_value());
+  EXPECT_LT((quarter->translation() - Eigen::Vector3d(0.25, -0.5, 0.125)).norm(), 1e-12);
+  EXPECT_NEAR(Eigen::AngleAxisd(quarter->linear()).angle(), 0.1, 1e-12);
+  EXPECT_TRUE(InterpolatePose(trajectory, 1.02, 0.0)->isApprox(b));
+  EXPECT_TRUE(InterpolatePose(trajectory, 2.0, 0.0)->isApprox(a));
+  EXPECT_FALSE(InterpolatePose(trajectory, 1.5, 0.05).has_value());  // 0.98 s without samples
+  EXPECT_TRUE(InterpolatePose(trajectory, 1.5, 1.0).has_value());
+  EXPECT_FALSE(InterpolatePose(trajectory, 0.99, 1.0).has_value());
+  EXPECT_FALSE(InterpolatePose(trajectory, 2.01, 1.0).has_value());
+  EXPECT_FALSE(InterpolatePose({}, 1.0, 1.0).has_value());
+}
+
 }  // namespace
 }  // namespace ieslam

@@ -1,5 +1,6 @@
 #include "backend/evaluation/consistency.h"
 
+#include <map>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -45,6 +46,80 @@ TEST(ConsistencyTest, NeesOfSamplesFromTheCovarianceAveragesTheDimension) {
   Vector6d off = truth;
   off[0] += 2.0 * std::sqrt(P(0, 0));
   EXPECT_GT(PoseNees(off, truth, P), 3.9);
+}
+
+// Errors drawn from the stated covariance: ~95% inside 2 sigma, mean NEES ~6 in its band;
+// the same errors against covariances ten times too small: few inside, NEES ~600.
+TEST(ConsistencyTest, RightCovariancesCoverTheErrorsAndOverconfidentOnesDoNot) {
+  std::mt19937 rng(5);
+  std::normal_distribution<double> gauss;
+  const Vector6d sigma = (Vector6d() << 0.01, 0.02, 0.015, 0.002, 0.003, 0.001).finished();
+  const Matrix6d P = sigma.cwiseAbs2().asDiagonal();
+  std::map<int, Vector6d> estimates, truth;
+  std::map<int, Matrix6d> right, overconfident;
+  for (int k = 0; k < 2000; ++k) {
+    truth[k] = (Vector6d() << 0.1 * k, 1, 2, 0.1, 0.2, 0.3).finished();
+    Vector6d e;
+    for (int i = 0; i < 6; ++i) e[i] = sigma[i] * gauss(rng);
+    estimates[k] = truth[k] + e;
+    right[k] = P;
+    overconfident[k] = P / 100.0;
+  }
+  right.erase(7);  // a pose without a covariance is left out
+  const PoseConsistency good = EvaluatePoseConsistency(estimates, right, truth);
+  EXPECT_EQ(good.poses, 1999);
+  EXPECT_NEAR(good.inside_2sigma, 0.954, 0.01);
+  for (const double share : good.inside_2sigma_per_axis) EXPECT_NEAR(share, 0.954, 0.015);
+  EXPECT_NEAR(good.median_error_over_sigma, 0.674, 0.03);
+  EXPECT_GT(good.mean_nees, good.nees_band.first);
+  EXPECT_LT(good.mean_nees, good.nees_band.second);
+  const PoseConsistency bad = EvaluatePoseConsistency(estimates, overconfident, truth);
+  EXPECT_LT(bad.inside_2sigma, 0.25);
+  EXPECT_GT(bad.mean_nees, 100.0 * bad.nees_band.second / 2.0);
+  EXPECT_NEAR(bad.median_error_over_sigma, 6.74, 0.3);
+}
+
+// A fixed origin (zero covariance) and a pose without ground truth are not compared.
+TEST(ConsistencyTest, TheAnchorAndPosesWithoutTruthAreLeftOut) {
+  const std::map<int, Vector6d> estimates = {{0, Vector6d::Zero()}, {1, Vector6d::Ones()}};
+  const std::map<int, Matrix6d> covariances = {{0, Matrix6d::Zero()}, {1, Matrix6d::Identity()}};
+  EXPECT_EQ(EvaluatePoseConsistency(estimates, covariances, {{0, Vector6d::Zero()}}).poses, 0);
+  const PoseConsistency one = EvaluatePoseConsistency(
+      estimates, covariances, {{0, Vector6d::Zero()}, {1, Vector6d::Ones()}});
+  EXPECT_EQ(one.poses, 1);
+  ASSERT_EQ(one.per_pose.size(), 1u);
+  EXPECT_EQ(one.per_pose[0].frame, 1);
+  EXPECT_EQ(one.per_pose[0].sigma, Vector6d::Ones());
+  EXPECT_EQ(one.mean_nees, 0.0);
+  EXPECT_EQ(one.inside_2sigma, 1.0);
+}
+
+// The ground truth in another world frame comes out in the estimate's, through the earliest
+// frame, with the poses between its samples interpolated.
+TEST(ConsistencyTest, TruthIsExpressedInTheEstimateFrameThroughTheFirstFrame) {
+  Eigen::Isometry3d T_gt_est = Eigen::Isometry3d::Identity();
+  T_gt_est.linear() = EulerZyxToRotation(Eigen::Vector3d(0.3, -0.2, 0.1));
+  T_gt_est.translation() = Eigen::Vector3d(1, -2, 0.5);
+  const auto truth_at = [](double t) {
+    return (Vector6d() << 0.1 * t, 0.02 * t, 0.0, 0.05 * t, 0.0, -0.01 * t).finished();
+  };
+  Trajectory gt;
+  for (int k = 0; k <= 100; ++k) {
+    const double t = 0.01 * k;
+    gt.push_back({t, T_gt_est * PoseToIsometry(truth_at(t))});
+  }
+  // Frames 5 and 3 in the estimate: the earlier one, 3, is the anchor whatever its id.
+  const std::map<int, double> stamps = {{3, 0.105}, {5, 0.505}, {8, 2.0}};
+  const std::map<int, Vector6d> estimates = {
+      {5, truth_at(0.505)}, {3, truth_at(0.105)}, {8, Vector6d::Zero()}};
+  const std::map<int, Vector6d> truth = TruthInEstimateFrame(gt, stamps, estimates, 0.04);
+  // Frame 8 lies after the ground truth ends; the anchor's truth would be its estimate.
+  ASSERT_EQ(truth.size(), 1u);
+  // Linear motion, so interpolation is exact up to the rotation's slerp path.
+  EXPECT_LT(PoseDifference(truth.at(5), truth_at(0.505)).norm(), 1e-6);
+  // Without ground truth at the anchor nothing can be expressed in the estimate's frame.
+  const std::map<int, Vector6d> two = {{3, Vector6d::Zero()}, {5, Vector6d::Zero()}};
+  EXPECT_TRUE(TruthInEstimateFrame(gt, {{3, -1.0}, {5, 0.5}}, two, 0.04).empty());
 }
 
 }  // namespace

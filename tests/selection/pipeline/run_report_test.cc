@@ -44,6 +44,12 @@ TEST(RunReportTest, HoldsWhatTheInterfacePromises) {
                           "refined",
                           "filter_vs_smoother",
                           "keyframe_sigmas",
+                          "consistency",
+                          "inside_2sigma",
+                          "mean_nees",
+                          "nees_band",
+                          "per_keyframe",
+                          "rejected_share",
                           "decisions"}) {
     EXPECT_TRUE(Has(report, key)) << key;
   }
@@ -52,6 +58,11 @@ TEST(RunReportTest, HoldsWhatTheInterfacePromises) {
   // The first decision adds the first frame, which is frame 1 of the dataset.
   EXPECT_NE(report.find("\"added\": [1]"), std::string::npos) << report.substr(0, 400);
   EXPECT_EQ(SourceIndices(*dataset, {0, 2}), (std::vector<int>{1, 3}));
+  // Both estimators' covariances are held against the ground truth, the anchor left out.
+  ASSERT_TRUE(run.consistency_filter.has_value());
+  ASSERT_TRUE(run.consistency_refined.has_value());
+  EXPECT_EQ(run.consistency_filter->poses, static_cast<int>(run.keyframes.size()) - 1);
+  EXPECT_EQ(run.consistency_refined->poses, static_cast<int>(run.keyframes.size()) - 1);
 }
 
 TEST(RunReportTest, LeavesOutWhatWasNotDone) {
@@ -65,6 +76,8 @@ TEST(RunReportTest, LeavesOutWhatWasNotDone) {
   EXPECT_FALSE(Has(report, "refined"));
   EXPECT_FALSE(Has(report, "filter_vs_smoother"));
   EXPECT_TRUE(Has(report, "keyframe_sigmas"));
+  EXPECT_TRUE(Has(report, "consistency"));
+  EXPECT_FALSE(run.consistency_refined.has_value());
 }
 
 }  // namespace
