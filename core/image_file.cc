@@ -145,7 +145,7 @@ std::string ImageFileDefect(const std::string& bytes) {
 }
 
 cv::Mat ReadImageFile(const std::string& path, int flags, const std::string& what) {
-  const std::string bytes = ReadInputFile(path, what, kMaxImageBytes);
+  std::string bytes = ReadInputFile(path, what, kMaxImageBytes);
   if (bytes.empty()) throw DataError("cannot decode " + what + " " + path + " (the file is empty)");
   const std::string defect = ImageFileDefect(bytes);
   if (!defect.empty()) throw DataError(what + " " + path + " is " + defect);

@@ -81,8 +81,8 @@ TEST_F(DatasetFilesTest, TruncatedJpegOrPngIsAnErrorNamingTheFileOnLoad) {
   std::ofstream(colour0, std::ios::binary)
       .write(reinterpret_cast<const char*>(jpeg.data()), jpeg.size() / 2);
   ASSERT_FALSE(cv::imread(colour0).empty()) << "the decoder alone accepts the cut JPEG";
-  ExpectDataError([&] { dataset->Load(0); },
-                  "frame 0: colour image " + colour0 + " is truncated: the JPEG does not end");
+  ExpectDataError([&] { dataset->Load(0); }, "frame 0: colour image " + colour0 +
+                                                 " is truncated: no end-of-image marker FF D9");
 
   std::vector<uchar> png;
   ASSERT_TRUE(cv::imencode(".png", Depth(640, 480, 5000), png));

@@ -160,6 +160,8 @@ TEST_F(RunOutputsTest, AFailedRefinementIsReportedAndNotWrittenAsRefined) {
   const auto dataset = OpenDataset(options.dataset, options.dataset_options);
   RunResult run = RunOnDataset(*dataset, options);
   ASSERT_TRUE(run.refined());
+  // An earlier run's set in the same directory.
+  std::ofstream(out_ / "report.json") << "an earlier run's\n";
   std::ofstream(out_ / "refined.tum") << "an earlier run's\n";
   run.pipeline.refinement->failure = "the bundle adjustment failed (FAILURE: test)";
   WriteRunOutputs(out_.string(), *dataset, options, run);
