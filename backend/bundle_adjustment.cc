@@ -12,11 +12,10 @@
 
 #include <ceres/ceres.h>
 #include <glog/logging.h>
-#include <Eigen/Cholesky>
-#include <Eigen/SparseCore>
 
 #include "backend/ba_residuals.h"
 #include "backend/information_filter.h"
+#include "backend/pose_covariance.h"
 #include "core/error.h"
 #include "core/stopwatch.h"
 
@@ -109,98 +108,6 @@ ceres::LinearSolverType ToCeres(BaLinearSolver solver) {
                                                 : ceres::SPARSE_NORMAL_CHOLESKY;
 }
 
-// The tangent-space covariances of the non-anchor poses of `frames` (6x6: translation, then
-// the quaternion manifold's 3-vector) by ceres::Covariance (sparse QR of the Jacobian).
-bool SparseQrTangentCovariances(ceres::Problem* ceres_problem, Parameters* params, int anchor_id,
-                                const std::set<int>& frames, int num_threads,
-                                std::map<int, Matrix6d>* tangent) {
-  std::vector<std::pair<const double*, const double*>> blocks;
-  for (int frame_id : frames) {
-    if (frame_id == anchor_id) continue;
-    const double* q = params->q_w_c(frame_id);
-    const double* t = params->t_w_c(frame_id);
-    blocks.emplace_back(t, t);
-    blocks.emplace_back(t, q);
-    blocks.emplace_back(q, q);
-  }
-  ceres::Covariance::Options covariance_options;
-  covariance_options.algorithm_type = ceres::SPARSE_QR;
-  covariance_options.sparse_linear_algebra_library_type = ceres::SUITE_SPARSE;
-  covariance_options.num_threads = num_threads;
-  ceres::Covariance covariance(covariance_options);
-  if (!covariance.Compute(blocks, ceres_problem)) return false;
-  for (int frame_id : frames) {
-    if (frame_id == anchor_id) continue;
-    Eigen::Matrix<double, 6, 6, Eigen::RowMajor> P;
-    const std::vector<const double*> pose_blocks = {params->t_w_c(frame_id),
-                                                    params->q_w_c(frame_id)};
-    CHECK(covariance.GetCovarianceMatrixInTangentSpace(pose_blocks, P.data()));
-    (*tangent)[frame_id] = P;
-  }
-  return true;
-}
-
-// The same by the Schur complement: J (Ceres' Jacobian in the tangent spaces, the loss
-// applied, as ceres::Covariance uses it) gives H = J^T J over the non-anchor poses and the
-// observed features; each feature's 3x3 block is eliminated on its own, and the poses'
-// complement S = H_pp - H_pf H_ff^-1 H_fp is factored densely (6 per pose: small). False
-// when S or a feature's block is not positive definite (a pose or feature the observations
-// do not determine).
-bool SchurTangentCovariances(ceres::Problem* ceres_problem, Parameters* params, int anchor_id,
-                             const std::set<int>& frames, const std::set<int64_t>& features,
-                             int num_threads, std::map<int, Matrix6d>* tangent) {
-  ceres::Problem::EvaluateOptions evaluate;
-  std::vector<int> pose_frames;
-  for (int frame_id : frames) {
-    if (frame_id == anchor_id) continue;
-    pose_frames.push_back(frame_id);
-    evaluate.parameter_blocks.push_back(params->t_w_c(frame_id));
-    evaluate.parameter_blocks.push_back(params->q_w_c(frame_id));
-  }
-  for (int64_t feature_id : features) evaluate.parameter_blocks.push_back(params->p_w(feature_id));
-  evaluate.num_threads = num_threads;
-  ceres::CRSMatrix crs;
-  if (!ceres_problem->Evaluate(evaluate, nullptr, nullptr, nullptr, &crs)) return false;
-  const Eigen::Map<const Eigen::SparseMatrix<double, Eigen::RowMajor, int>> J(
-      crs.num_rows, crs.num_cols, static_cast<int>(crs.values.size()), crs.rows.data(),
-      crs.cols.data(), crs.values.data());
-  const int np = 6 * static_cast<int>(pose_frames.size());
-  const int nf = crs.num_cols - np;
-  const Eigen::SparseMatrix<double> H = Eigen::SparseMatrix<double>(J.transpose()) * J;
-  // H_ff^-1 block by block, then S = H_pp - H_pf H_ff^-1 H_fp.
-  std::vector<Eigen::Triplet<double>> inverse_blocks;
-  inverse_blocks.reserve(9 * nf / 3);
-  std::vector<Eigen::Matrix3d> H_ff(nf / 3, Eigen::Matrix3d::Zero());
-  for (int c = np; c < np + nf; ++c) {
-    for (Eigen::SparseMatrix<double>::InnerIterator it(H, c); it; ++it) {
-      if (it.row() >= np && (it.row() - np) / 3 == (c - np) / 3) {
-        H_ff[(c - np) / 3]((it.row() - np) % 3, (c - np) % 3) = it.value();
-      }
-    }
-  }
-  for (int f = 0; f < nf; f += 3) {
-    const Eigen::LLT<Eigen::Matrix3d> llt(H_ff[f / 3]);
-    if (llt.info() != Eigen::Success) return false;
-    const Eigen::Matrix3d inverse = llt.solve(Eigen::Matrix3d::Identity());
-    for (int r = 0; r < 3; ++r) {
-      for (int c = 0; c < 3; ++c) inverse_blocks.emplace_back(f + r, f + c, inverse(r, c));
-    }
-  }
-  Eigen::SparseMatrix<double> H_ff_inverse(nf, nf);
-  H_ff_inverse.setFromTriplets(inverse_blocks.begin(), inverse_blocks.end());
-  const Eigen::SparseMatrix<double> H_pf = H.topRightCorner(np, nf);
-  const Eigen::MatrixXd S =
-      Eigen::MatrixXd(H.topLeftCorner(np, np)) -
-      Eigen::MatrixXd(Eigen::SparseMatrix<double>(H_pf * H_ff_inverse) * H_pf.transpose());
-  const Eigen::LLT<Eigen::MatrixXd> llt(S);
-  if (llt.info() != Eigen::Success) return false;
-  const Eigen::MatrixXd covariance = llt.solve(Eigen::MatrixXd::Identity(np, np));
-  for (size_t k = 0; k < pose_frames.size(); ++k) {
-    (*tangent)[pose_frames[k]] = covariance.block<6, 6>(6 * k, 6 * k);
-  }
-  return true;
-}
-
 // Fills result->pose_covariances{,_euler} of the poses of `frames`. Ceres' tangent of the
 // quaternion block is EigenQuaternionManifold's, delta with
 // q_true = [cos|delta|, sin|delta| delta/|delta|] * q: a rotation of angle 2|delta| about the
@@ -209,13 +116,17 @@ void ComputePoseCovariances(ceres::Problem* ceres_problem, Parameters* params, i
                             const std::set<int>& frames, const std::set<int64_t>& features,
                             const BundleAdjustmentOptions& options,
                             BundleAdjustmentResult* result) {
+  std::vector<PoseParameterBlocks> poses;
+  for (int frame_id : frames) {
+    if (frame_id != anchor_id) {
+      poses.push_back({frame_id, params->t_w_c(frame_id), params->q_w_c(frame_id)});
+    }
+  }
+  std::vector<double*> feature_blocks;
+  for (int64_t feature_id : features) feature_blocks.push_back(params->p_w(feature_id));
   std::map<int, Matrix6d> tangent;
-  const bool computed = options.covariance_method == BaCovariance::kSchur
-                            ? SchurTangentCovariances(ceres_problem, params, anchor_id, frames,
-                                                      features, options.num_threads, &tangent)
-                            : SparseQrTangentCovariances(ceres_problem, params, anchor_id, frames,
-                                                         options.num_threads, &tangent);
-  if (!computed) {
+  if (!PoseTangentCovariances(ceres_problem, poses, feature_blocks, options.covariance_method,
+                              options.num_threads, &tangent)) {
     result->covariance_error =
         "the pose covariances could not be computed: the information matrix is singular (a "
         "pose or feature that the observations do not determine)";

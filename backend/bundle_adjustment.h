@@ -19,6 +19,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
+#include "backend/pose_covariance.h"
 #include "core/camera.h"
 #include "core/observation.h"
 #include "core/option_table.h"
@@ -30,7 +31,6 @@ class InformationFilter;
 
 enum class BaRobustLoss { kNone, kHuber };
 enum class BaLinearSolver { kSparseSchur, kSparseNormalCholesky };
-enum class BaCovariance { kSchur, kSparseQr };
 
 std::string BaRobustLossName(BaRobustLoss loss);  // "none", "huber"
 // The loss named `name` (as BaRobustLossName writes it); false for any other name.
@@ -67,10 +67,7 @@ struct BundleAdjustmentOptions {
   // Per-pose 6x6 marginal covariances of the last solve, from the Gauss-Newton information
   // J^T J at the solution (the loss applied).
   bool compute_covariances = true;
-  // kSchur: the features eliminated from J^T J block by block (each feature's 3x3 block is
-  // independent of the others), the poses' Schur complement factored densely; exact, and
-  // seconds where ceres::Covariance's sparse QR of the whole Jacobian (kSparseQr, the
-  // reference the tests hold it to) takes minutes on a few hundred keyframes.
+  // How (backend/pose_covariance.h).
   BaCovariance covariance_method = BaCovariance::kSchur;
   // An observation whose point is closer than this to the camera plane is invalid.
   double min_depth_m = 1e-3;
