@@ -179,6 +179,17 @@ const OptionTable<InformationFilterOptions>& InformationFilterOptions::Table() {
     t->Double("min_depth_m", &O::min_depth_m,
               "a feature closer to the camera plane is not linearised")
         .Above(0.0);
+    t->Double("gate_chi2", &O::gate_chi2,
+              "chi-square (3 dof) an observation of a known feature must pass (0: no gate)")
+        .Min(0.0);
+    t->Bool("joint_compatibility", &O::joint_compatibility,
+            "test a frame's kept observations jointly, dropping the worst until they pass");
+    t->Double("joint_probability", &O::joint_probability, "the joint test's chi-square probability")
+        .Above(0.5)
+        .Below(1.0);
+    t->Bool("adapt_noise", &O::adapt_noise,
+            "scale a jointly incompatible frame's Q by its variance factor before dropping any");
+    t->Double("max_noise_scale", &O::max_noise_scale, "the largest such scale of Q").Min(1.0);
     t->Require([](const O& o) {
       return o.max_dense_pose_dim == 0 || o.max_dense_pose_dim >= 6
                  ? std::string()

@@ -71,6 +71,21 @@ struct InformationFilterOptions {
   int min_known_features = 3;
   // A feature closer than this to the camera plane (p_L.z) cannot be linearised.
   double min_depth_m = 1e-3;
+  // Observations of known features can be screened before they enter
+  // (backend/observation_gate.h): each must pass a chi-square test with 3 dof at gate_chi2
+  // (16.27 is 1 - 1e-3, the bundle adjustment's gate: a right observation is lost once in a
+  // thousand), then the kept set the joint test at joint_probability. 0, the default, keeps
+  // all: the gate tests against the map's stated covariance, and on real sequences that is
+  // still too small, so the gate would shed right observations (docs/results.md).
+  double gate_chi2 = 0.0;
+  bool joint_compatibility = true;
+  double joint_probability = 0.999;
+  // A frame whose kept set fails the joint test has its Q scaled by its variance factor (at
+  // most max_noise_scale) before anything is dropped: what the sensor does that Q does not
+  // model (motion blur, colour/depth time offsets under fast motion) shows in the
+  // innovations frame by frame.
+  bool adapt_noise = true;
+  double max_noise_scale = 100.0;
 
   // The options' registration: keys, help, checks (core/option_table.h).
   static const OptionTable<InformationFilterOptions>& Table();
@@ -207,6 +222,7 @@ class InformationFilter {
   // True while the dense pose Schur complement factors the matrix (max_dense_pose_dim).
   bool uses_pose_schur() const;
   const InformationFilterOptions& options() const { return options_; }
+  const PinholeCamera& camera() const { return camera_; }
 
  private:
   struct Linearization;

@@ -8,6 +8,7 @@
 
 #include <glog/logging.h>
 
+#include "backend/observation_gate.h"
 #include "core/error.h"
 #include "core/pose.h"
 #include "core/stopwatch.h"
@@ -55,8 +56,19 @@ class Run {
   // filter refuses it.
   bool Add(const CandidateFrame& c) {
     const auto start = Clock::now();
+    std::vector<FeatureObservation> observations = c.observations;
+    Vector6d T_w_c = InitialPose(c);
+    if (filter_->options().gate_chi2 > 0.0) {
+      std::vector<int64_t> known;
+      for (const FeatureObservation& obs : observations) known.push_back(obs.feature_id);
+      const GatedObservations gated = GateObservations(
+          *filter_, T_w_c, observations, filter_->JointFeatureCovariance(known), /*joint=*/true);
+      result_->gate.Add(gated.stats);
+      observations = gated.observations;
+      if (gated.pose_fitted) T_w_c = gated.T_w_c;
+    }
     try {
-      filter_->AddPose(c.frame, InitialPose(c), c.observations);
+      filter_->AddPose(c.frame, T_w_c, observations);
     } catch (const DataError& e) {
       result_->seconds_filter += SecondsSince(start);
       Place(c, false);
@@ -66,7 +78,7 @@ class Run {
     result_->seconds_filter += SecondsSince(start);
     source_->Commit(c);
     result_->selected.push_back(c.frame);
-    result_->observations[c.frame] = c.observations;
+    result_->observations[c.frame] = std::move(observations);
     FramePlacement& placement = result_->frames[c.frame];
     placement.selected = placement.placed = true;
     placement.skip_reason.clear();
@@ -170,11 +182,18 @@ class Run {
           scored.push_back(obs);
         }
       }
+      Vector6d T_w_c = InitialPose(c);
+      if (filter_->options().gate_chi2 > 0.0) {
+        // Scored on what would enter: the observations that pass the single gates.
+        GatedObservations gated =
+            GateObservations(*filter_, T_w_c, scored, covariance, /*joint=*/false);
+        scored = std::move(gated.observations);
+        if (gated.pose_fitted) T_w_c = gated.T_w_c;
+      }
       GainTerms terms;
       // -infinity when a feature lies behind the candidate's camera: the registration is
       // wrong, and the candidate not scorable.
-      const double gain =
-          filter_->InformationGain(InitialPose(c), scored, min_new, covariance, &terms);
+      const double gain = filter_->InformationGain(T_w_c, scored, min_new, covariance, &terms);
       decision->candidates.push_back(c.frame);
       decision->gains.push_back(gain);
       decision->map_gains.push_back(std::isfinite(gain) ? terms.map : gain);

@@ -22,6 +22,7 @@
 #include <vector>
 
 #include "backend/information_filter.h"
+#include "backend/observation_gate.h"
 #include "core/frame_source.h"
 #include "core/option_table.h"
 
@@ -91,6 +92,8 @@ struct SelectionResult {
   int frames_processed = 0;
   double seconds_selection = 0.0;  // preparing candidates and scoring them
   double seconds_filter = 0.0;     // adding to the filter (update + recovery)
+  // What the filter's observation gate kept out of the frames added (or refused).
+  GateStatistics gate;
 };
 
 class KeyframeSelector {

@@ -117,6 +117,27 @@ std::string DescribeDecision(const SelectionDecision& d, const Dataset& dataset)
   return line;
 }
 
+namespace {
+
+// The Q scales the gate gave the jointly tested frames: how many were scaled, and the
+// scales' median, 90th percentile and largest.
+Json NoiseScalesToJson(std::vector<double> scales) {
+  Json json = Json::Object().Set("frames", static_cast<int>(scales.size()));
+  if (scales.empty()) return json;
+  std::sort(scales.begin(), scales.end());
+  const auto at = [&scales](double q) {
+    return scales[std::min(scales.size() - 1, static_cast<size_t>(q * scales.size()))];
+  };
+  return json
+      .Set("scaled", static_cast<int>(std::count_if(scales.begin(), scales.end(),
+                                                    [](double s) { return s > 1.0; })))
+      .Set("median", at(0.5))
+      .Set("p90", at(0.9))
+      .Set("max", scales.back());
+}
+
+}  // namespace
+
 Json RunReport(const Dataset& dataset, const RunOptions& options, const RunResult& run,
                double total_seconds) {
   const PipelineResult& p = run.pipeline;
@@ -143,6 +164,15 @@ Json RunReport(const Dataset& dataset, const RunOptions& options, const RunResul
       .Set("features", p.filter->num_features())
       .Set("interrupted", run.interrupted())
       .Set("frames_processed", run.frames_processed());
+  const GateStatistics& gate = p.selection.gate;
+  report.Set("observation_gate", Json::Object()
+                                     .Set("frames", gate.frames)
+                                     .Set("tested", gate.tested)
+                                     .Set("rejected", gate.rejected)
+                                     .Set("rejected_joint", gate.rejected_joint)
+                                     .Set("rejected_share", gate.rejected_share())
+                                     .Set("incompatible_frames", gate.incompatible_frames)
+                                     .Set("noise_scale", NoiseScalesToJson(gate.noise_scales)));
   // The dataset's warnings (printed when it was opened) and the run's, as printed.
   std::vector<std::string> warnings = dataset.warnings();
   warnings.insert(warnings.end(), run.warnings.begin(), run.warnings.end());

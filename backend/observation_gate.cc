@@ -1,0 +1,261 @@
+#include "backend/observation_gate.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <glog/logging.h>
+#include <Eigen/Cholesky>
+
+#include "core/chi_square.h"
+
+namespace ieslam {
+namespace {
+
+// Robust iterations before the gate (Cauchy weights at the gate's scale), and fits of the
+// kept set between its tests: each converges in a few Gauss-Newton steps from a
+// registration's pose.
+constexpr int kRobustIterations = 6;
+constexpr int kGateRounds = 8;
+constexpr int kMaxJointDrops = 12;
+constexpr int kNoiseRounds = 4;
+constexpr int kFitIterations = 6;
+constexpr double kConverged = 1e-8;  // metres and radians: far below any sigma
+
+// One observation of a known feature at the current pose.
+struct Term {
+  int input = -1;      // index into the observations
+  int block = -1;      // the feature's block in `known`
+  bool valid = false;  // in front of the camera: linearisable
+  Eigen::Vector3d r = Eigen::Vector3d::Zero();
+  Matrix36d J_x = Matrix36d::Zero();
+  Eigen::Matrix3d J_f = Eigen::Matrix3d::Zero();
+  Eigen::Matrix3d S = Eigen::Matrix3d::Identity();  // Q + J_f P_f J_f^T
+  double d2 = 0.0;
+};
+
+void Linearize(const InformationFilter& filter, const Vector6d& T_w_c,
+               const std::vector<FeatureObservation>& observations, const FeatureCovariance& known,
+               std::vector<Term>* terms) {
+  for (Term& t : *terms) {
+    const FeatureObservation& obs = observations[t.input];
+    const Eigen::Vector3d p_w = filter.feature(obs.feature_id);
+    t.valid = WorldToCamera(T_w_c, p_w).z() > filter.options().min_depth_m;
+    if (!t.valid) continue;
+    t.r = obs.z - PredictObservation(T_w_c, p_w, filter.camera(), &t.J_x, &t.J_f);
+    const Eigen::Matrix3d P_f = known.covariance.block<3, 3>(3 * t.block, 3 * t.block);
+    t.S = obs.Q + t.J_f * P_f * t.J_f.transpose();
+    t.d2 = t.r.dot(t.S.ldlt().solve(t.r));
+  }
+}
+
+// One Gauss-Newton step of the pose on the terms with `weight` > 0; false when they do not
+// determine it. P_x is the step's covariance (H^-1, weights taken as information scales).
+bool PoseStep(const std::vector<Term>& terms, const std::vector<double>& weight, Vector6d* step,
+              Matrix6d* P_x) {
+  Matrix6d H = Matrix6d::Zero();
+  Vector6d g = Vector6d::Zero();
+  for (size_t k = 0; k < terms.size(); ++k) {
+    if (!terms[k].valid || weight[k] <= 0.0) continue;
+    const Eigen::Matrix<double, 6, 3> JtSi =
+        terms[k].J_x.transpose() * terms[k].S.inverse() * weight[k];
+    H += JtSi * terms[k].J_x;
+    g += JtSi * terms[k].r;
+  }
+  const Eigen::LLT<Matrix6d> llt(H);
+  if (llt.info() != Eigen::Success) return false;
+  const Eigen::Matrix<double, 6, 1> diagonal = H.diagonal();
+  if (!(diagonal.minCoeff() > 0.0) || !std::isfinite(diagonal.maxCoeff())) return false;
+  *step = llt.solve(g);
+  *P_x = llt.solve(Matrix6d::Identity());
+  return step->allFinite();
+}
+
+// The residual test of each term against the fit with covariance P_x of the kept ones.
+void Studentize(const std::vector<bool>& kept, const Matrix6d& P_x, std::vector<Term>* terms) {
+  for (size_t k = 0; k < terms->size(); ++k) {
+    Term& t = (*terms)[k];
+    if (!t.valid) continue;
+    const Eigen::Matrix3d leverage = t.J_x * P_x * t.J_x.transpose();
+    Eigen::LLT<Eigen::Matrix3d> C(kept[k] ? Eigen::Matrix3d(t.S - leverage)
+                                          : Eigen::Matrix3d(t.S + leverage));
+    // A kept observation the pose hangs on alone has no residual to test (C singular).
+    if (C.info() != Eigen::Success) C.compute(t.S);
+    t.d2 = t.r.dot(C.solve(t.r));
+  }
+}
+
+// The kept set's normalised innovation squared after the pose's GLS fit, with the features'
+// joint covariance, and its degrees of freedom (3 per observation, less the pose's 6).
+double JointNis(const std::vector<Term>& terms, const std::vector<bool>& kept,
+                const std::vector<FeatureObservation>& observations, const FeatureCovariance& known,
+                int* dof) {
+  std::vector<int> index;
+  for (size_t k = 0; k < terms.size(); ++k) {
+    if (kept[k]) index.push_back(static_cast<int>(k));
+  }
+  const int n = static_cast<int>(index.size());
+  Eigen::MatrixXd S = Eigen::MatrixXd::Zero(3 * n, 3 * n);
+  Eigen::MatrixXd J = Eigen::MatrixXd::Zero(3 * n, 6);
+  Eigen::VectorXd r(3 * n);
+  for (int a = 0; a < n; ++a) {
+    const Term& ta = terms[index[a]];
+    S.block<3, 3>(3 * a, 3 * a) += observations[ta.input].Q;
+    J.block<3, 6>(3 * a, 0) = ta.J_x;
+    r.segment<3>(3 * a) = ta.r;
+    for (int b = 0; b <= a; ++b) {
+      const Term& tb = terms[index[b]];
+      const Eigen::Matrix3d block =
+          ta.J_f * known.covariance.block<3, 3>(3 * ta.block, 3 * tb.block) * tb.J_f.transpose();
+      S.block<3, 3>(3 * a, 3 * b) += block;
+      if (b != a) S.block<3, 3>(3 * b, 3 * a) += block.transpose();
+    }
+  }
+  *dof = 3 * n - 6;
+  const Eigen::LLT<Eigen::MatrixXd> llt(S);
+  if (llt.info() != Eigen::Success) return 0.0;
+  const Eigen::VectorXd Si_r = llt.solve(r);
+  const Eigen::MatrixXd Si_J = llt.solve(J);
+  const Matrix6d H = J.transpose() * Si_J;
+  const Vector6d g = J.transpose() * Si_r;
+  return r.dot(Si_r) - g.dot(H.ldlt().solve(g));
+}
+
+// Fits the pose robustly from *T (Cauchy weights at the gate's scale keep gross outliers
+// from dragging the pose they are then tested against), then gates, refits on the kept set
+// and gates again until the set stops changing. False when the pose could not be fitted.
+bool GateSingly(const InformationFilter& filter, const std::vector<FeatureObservation>& obs,
+                const FeatureCovariance& known, double gate, Vector6d* T, std::vector<Term>* terms,
+                std::vector<bool>* kept, Matrix6d* P_x) {
+  Vector6d step;
+  std::vector<double> weight(terms->size(), 1.0);
+  bool fitted = false;
+  for (int it = 0; it < kRobustIterations; ++it) {
+    Linearize(filter, *T, obs, known, terms);
+    for (size_t k = 0; k < terms->size(); ++k) weight[k] = 1.0 / (1.0 + (*terms)[k].d2 / gate);
+    if (!PoseStep(*terms, weight, &step, P_x)) break;
+    *T += step;
+    fitted = true;
+  }
+  kept->assign(terms->size(), true);
+  for (int round = 0; round < kGateRounds; ++round) {
+    // Gauss-Newton on the kept set to convergence, then the residuals at the fit.
+    bool converged = false;
+    for (int it = 0; it < kFitIterations && !converged; ++it) {
+      Linearize(filter, *T, obs, known, terms);
+      for (size_t k = 0; k < terms->size(); ++k) weight[k] = (*kept)[k] && (*terms)[k].valid;
+      if (!PoseStep(*terms, weight, &step, P_x)) break;
+      *T += step;
+      fitted = true;
+      converged = step.norm() < kConverged;
+    }
+    Linearize(filter, *T, obs, known, terms);
+    Studentize(*kept, *P_x, terms);
+    bool changed = false;
+    for (size_t k = 0; k < terms->size(); ++k) {
+      const bool keep = (*terms)[k].valid && (*terms)[k].d2 <= gate;
+      changed = changed || keep != (*kept)[k];
+      (*kept)[k] = keep;
+    }
+    if (!changed) break;
+  }
+  // Without a fit the residuals are against the initial pose: still tested.
+  if (!fitted) {
+    Linearize(filter, *T, obs, known, terms);
+    for (size_t k = 0; k < terms->size(); ++k) {
+      (*kept)[k] = (*terms)[k].valid && (*terms)[k].d2 <= gate;
+    }
+  }
+  return fitted;
+}
+
+}  // namespace
+
+void GateStatistics::Add(const GateStatistics& other) {
+  frames += other.frames;
+  tested += other.tested;
+  rejected += other.rejected;
+  rejected_joint += other.rejected_joint;
+  incompatible_frames += other.incompatible_frames;
+  noise_scales.insert(noise_scales.end(), other.noise_scales.begin(), other.noise_scales.end());
+}
+
+GatedObservations GateObservations(const InformationFilter& filter, const Vector6d& T_w_c_initial,
+                                   const std::vector<FeatureObservation>& observations,
+                                   const FeatureCovariance& known, bool joint) {
+  GatedObservations out;
+  out.T_w_c = T_w_c_initial;
+  out.stats.frames = 1;
+  const InformationFilterOptions& options = filter.options();
+  std::vector<Term> terms;
+  for (size_t i = 0; i < observations.size(); ++i) {
+    if (!filter.HasFeature(observations[i].feature_id)) continue;
+    const auto it = known.index.find(observations[i].feature_id);
+    CHECK(it != known.index.end())
+        << "feature " << observations[i].feature_id << " is missing from the FeatureCovariance";
+    Term t;
+    t.input = static_cast<int>(i);
+    t.block = it->second;
+    terms.push_back(t);
+  }
+  out.stats.tested = static_cast<int>(terms.size());
+  if (options.gate_chi2 <= 0.0 || terms.empty()) {
+    out.observations = observations;
+    return out;
+  }
+
+  std::vector<FeatureObservation> obs = observations;
+  Vector6d T = T_w_c_initial;
+  std::vector<bool> kept;
+  Matrix6d P_x;
+  bool fitted = GateSingly(filter, obs, known, options.gate_chi2, &T, &terms, &kept, &P_x);
+  const int min_known = options.min_known_features;
+  if (joint && options.joint_compatibility) {
+    int dof = 0;
+    // A set that fails the joint test as a whole says the frame's noise is larger than Q
+    // claims (blur, a colour/depth time offset under fast motion): its variance factor, the
+    // NIS per degree of freedom, scales the frame's Q (never below the prior), and the
+    // single gates are taken again at that scale. The gates truncate the tails the factor
+    // is estimated from, so it is re-estimated on the new kept set until the set passes.
+    for (int round = 0; options.adapt_noise && round < kNoiseRounds; ++round) {
+      const double nis = JointNis(terms, kept, obs, known, &dof);
+      if (dof <= 0 || nis <= ChiSquareQuantile(options.joint_probability, dof)) break;
+      const double scale = std::min(nis / dof, options.max_noise_scale / out.noise_scale);
+      if (!(scale > 1.0)) break;
+      for (FeatureObservation& o : obs) o.Q *= scale;
+      out.noise_scale *= scale;
+      fitted = GateSingly(filter, obs, known, options.gate_chi2, &T, &terms, &kept, &P_x) || fitted;
+    }
+    for (;; ++out.stats.rejected_joint) {
+      const double nis_kept = JointNis(terms, kept, obs, known, &dof);
+      if (dof <= 0 || nis_kept <= ChiSquareQuantile(options.joint_probability, dof)) break;
+      if (out.stats.rejected_joint == kMaxJointDrops ||
+          std::count(kept.begin(), kept.end(), true) <= min_known) {
+        out.stats.incompatible_frames = 1;
+        break;
+      }
+      size_t worst = 0;
+      double worst_d2 = -1.0;
+      for (size_t k = 0; k < terms.size(); ++k) {
+        if (kept[k] && terms[k].d2 > worst_d2) worst_d2 = terms[k].d2, worst = k;
+      }
+      kept[worst] = false;
+    }
+  }
+  out.stats.noise_scales.push_back(out.noise_scale);
+
+  std::vector<bool> keep_input(obs.size(), true);
+  for (size_t k = 0; k < terms.size(); ++k) {
+    if (!kept[k]) {
+      keep_input[terms[k].input] = false;
+      ++out.stats.rejected;
+    }
+  }
+  for (size_t i = 0; i < obs.size(); ++i) {
+    if (keep_input[i]) out.observations.push_back(obs[i]);
+  }
+  out.pose_fitted = fitted && T.allFinite();
+  if (out.pose_fitted) out.T_w_c = T;
+  return out;
+}
+
+}  // namespace ieslam
