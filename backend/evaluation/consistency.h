@@ -41,6 +41,12 @@ struct PoseConsistency {
   // far above it is overconfidence, one inside it does not prove consistency.
   double mean_nees = 0.0;
   std::pair<double, double> nees_band{0.0, 0.0};
+  // The rotation free of the Euler angles' coupling (near-opposite alpha and gamma errors
+  // can be a small rotation): the median angle of R_estimate R_truth^T, and the mean NEES of
+  // that rotation vector against the covariance mapped onto it (3 dof) with its band.
+  double median_rotation_error_deg = 0.0;
+  double mean_rotation_nees = 0.0;
+  std::pair<double, double> rotation_nees_band{0.0, 0.0};
   // Each pose compared, in frame order: error = PoseDifference(estimate, truth), the stated
   // sigmas (square roots of the covariance's diagonal) and the NEES.
   struct Pose {
@@ -48,6 +54,8 @@ struct PoseConsistency {
     Vector6d error = Vector6d::Zero();
     Vector6d sigma = Vector6d::Zero();
     double nees = 0.0;
+    double rotation_error_deg = 0.0;
+    double rotation_nees = 0.0;
   };
   std::vector<Pose> per_pose;
 };

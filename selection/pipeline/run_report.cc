@@ -79,7 +79,9 @@ Json ConsistencyToJson(const PoseConsistency& c) {
                           .Set("frame", pose.frame)
                           .Set("error", six(pose.error))
                           .Set("sigma", six(pose.sigma))
-                          .Set("nees", pose.nees));
+                          .Set("nees", pose.nees)
+                          .Set("rotation_error_deg", pose.rotation_error_deg)
+                          .Set("rotation_nees", pose.rotation_nees));
   }
   return Json::Object()
       .Set("keyframes", c.poses)
@@ -90,6 +92,10 @@ Json ConsistencyToJson(const PoseConsistency& c) {
       .Set("median_error_over_sigma", c.median_error_over_sigma)
       .Set("mean_nees", c.mean_nees)
       .Set("nees_band", Json::ArrayOf(std::vector<double>{c.nees_band.first, c.nees_band.second}))
+      .Set("median_rotation_error_deg", c.median_rotation_error_deg)
+      .Set("mean_rotation_nees", c.mean_rotation_nees)
+      .Set("rotation_nees_band", Json::ArrayOf(std::vector<double>{c.rotation_nees_band.first,
+                                                                   c.rotation_nees_band.second}))
       .Set("per_keyframe", per_keyframe);
 }
 

@@ -69,10 +69,26 @@ TEST(ConsistencyTest, RightCovariancesCoverTheErrorsAndOverconfidentOnesDoNot) {
   EXPECT_NEAR(good.median_error_over_sigma, 0.674, 0.03);
   EXPECT_GT(good.mean_nees, good.nees_band.first);
   EXPECT_LT(good.mean_nees, good.nees_band.second);
+  EXPECT_GT(good.mean_rotation_nees, good.rotation_nees_band.first);
+  EXPECT_LT(good.mean_rotation_nees, good.rotation_nees_band.second);
   const PoseConsistency bad = EvaluatePoseConsistency(estimates, overconfident, truth);
   EXPECT_LT(bad.inside_2sigma, 0.25);
   EXPECT_GT(bad.mean_nees, 100.0 * bad.nees_band.second / 2.0);
   EXPECT_NEAR(bad.median_error_over_sigma, 6.74, 0.3);
+  EXPECT_GT(bad.mean_rotation_nees, 50.0 * bad.rotation_nees_band.second);
+}
+
+// Near beta = 90 deg, alpha and gamma turn about nearly the same axis: errors of +0.2 rad in
+// both are a rotation of about 0.57 deg, which the rotation error reports.
+TEST(ConsistencyTest, RotationErrorIsFreeOfTheEulerCoupling) {
+  const Vector6d truth = (Vector6d() << 0, 0, 0, 0.3, M_PI / 2 - 0.05, 0.1).finished();
+  const Vector6d estimate = (Vector6d() << 0, 0, 0, 0.5, M_PI / 2 - 0.05, 0.3).finished();
+  const Matrix6d P = Vector6d::Constant(0.01 * 0.01).asDiagonal();
+  const PoseConsistency c = EvaluatePoseConsistency({{1, estimate}}, {{1, P}}, {{1, truth}});
+  ASSERT_EQ(c.per_pose.size(), 1u);
+  EXPECT_NEAR(c.per_pose[0].error[3], 0.2, 1e-12);
+  EXPECT_NEAR(c.per_pose[0].rotation_error_deg, 0.572, 0.005);
+  EXPECT_NEAR(c.median_rotation_error_deg, 0.572, 0.005);
 }
 
 // A fixed origin (zero covariance) and a pose without ground truth are not compared.
