@@ -5,6 +5,7 @@
 
 #include <glog/logging.h>
 #include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
 
 #include "core/chi_square.h"
 
@@ -20,6 +21,8 @@ constexpr int kMaxJointDrops = 12;
 constexpr int kNoiseRounds = 4;
 constexpr int kFitIterations = 6;
 constexpr double kConverged = 1e-8;  // metres and radians: far below any sigma
+// Below it the observations do not determine the pose (see PoseStep).
+constexpr double kMinNormalisedEigenvalue = 1e-9;
 
 // One observation of a known feature at the current pose.
 struct Term {
@@ -61,10 +64,20 @@ bool PoseStep(const std::vector<Term>& terms, const std::vector<double>& weight,
     H += JtSi * terms[k].J_x;
     g += JtSi * terms[k].r;
   }
-  const Eigen::LLT<Matrix6d> llt(H);
-  if (llt.info() != Eigen::Success) return false;
   const Eigen::Matrix<double, 6, 1> diagonal = H.diagonal();
   if (!(diagonal.minCoeff() > 0.0) || !std::isfinite(diagonal.maxCoeff())) return false;
+  // Rank: the smallest eigenvalue of H scaled to a unit diagonal, free of the units of
+  // rotation and translation. Two features (rotation about the line through them) or
+  // collinear ones leave a direction undetermined, and a Cholesky of H can still succeed.
+  const Vector6d inv_sqrt = diagonal.cwiseSqrt().cwiseInverse();
+  const Matrix6d normalised = inv_sqrt.asDiagonal() * H * inv_sqrt.asDiagonal();
+  if (!(Eigen::SelfAdjointEigenSolver<Matrix6d>(normalised, Eigen::EigenvaluesOnly)
+            .eigenvalues()
+            .minCoeff() > kMinNormalisedEigenvalue)) {
+    return false;
+  }
+  const Eigen::LLT<Matrix6d> llt(H);
+  if (llt.info() != Eigen::Success) return false;
   *step = llt.solve(g);
   *P_x = llt.solve(Matrix6d::Identity());
   return step->allFinite();
@@ -85,10 +98,11 @@ void Studentize(const std::vector<bool>& kept, const Matrix6d& P_x, std::vector<
 }
 
 // The kept set's normalised innovation squared after the pose's GLS fit, with the features'
-// joint covariance, and its degrees of freedom (3 per observation, less the pose's 6).
-double JointNis(const std::vector<Term>& terms, const std::vector<bool>& kept,
-                const std::vector<FeatureObservation>& observations, const FeatureCovariance& known,
-                int* dof) {
+// joint covariance, and its degrees of freedom (3 per observation, less the pose's 6); false
+// when that covariance is not positive definite (numerically), and the set cannot be tested.
+bool JointNis(const std::vector<Term>& terms, const std::vector<bool>& kept,
+              const std::vector<FeatureObservation>& observations, const FeatureCovariance& known,
+              int* dof, double* nis) {
   std::vector<int> index;
   for (size_t k = 0; k < terms.size(); ++k) {
     if (kept[k]) index.push_back(static_cast<int>(k));
@@ -112,44 +126,85 @@ double JointNis(const std::vector<Term>& terms, const std::vector<bool>& kept,
   }
   *dof = 3 * n - 6;
   const Eigen::LLT<Eigen::MatrixXd> llt(S);
-  if (llt.info() != Eigen::Success) return 0.0;
+  if (llt.info() != Eigen::Success) return false;
   const Eigen::VectorXd Si_r = llt.solve(r);
   const Eigen::MatrixXd Si_J = llt.solve(J);
   const Matrix6d H = J.transpose() * Si_J;
   const Vector6d g = J.transpose() * Si_r;
-  return r.dot(Si_r) - g.dot(H.ldlt().solve(g));
+  *nis = r.dot(Si_r) - g.dot(H.ldlt().solve(g));
+  return std::isfinite(*nis);
+}
+
+// Gauss-Newton of the pose on the kept set to convergence from *T, then each term's residual
+// test against that fit (Studentize). When the kept set does not determine the pose, *T is
+// left as it was and the terms hold their plain residuals against it. True when fitted.
+bool FitKept(const InformationFilter& filter, const std::vector<FeatureObservation>& obs,
+             const FeatureCovariance& known, const std::vector<bool>& kept, Vector6d* T,
+             std::vector<Term>* terms, Matrix6d* P_x) {
+  const Vector6d T_start = *T;
+  Vector6d step;
+  std::vector<double> weight(terms->size(), 0.0);
+  bool fitted = false;
+  bool converged = false;
+  for (int it = 0; it < kFitIterations && !converged; ++it) {
+    Linearize(filter, *T, obs, known, terms);
+    for (size_t k = 0; k < terms->size(); ++k) weight[k] = kept[k] && (*terms)[k].valid;
+    Matrix6d P;
+    if (!PoseStep(*terms, weight, &step, &P)) break;
+    *T += step;
+    fitted = true;
+    converged = step.norm() < kConverged;
+  }
+  Linearize(filter, *T, obs, known, terms);
+  if (fitted) {
+    // P_x at the final linearisation point, for the residual tests.
+    for (size_t k = 0; k < terms->size(); ++k) weight[k] = kept[k] && (*terms)[k].valid;
+    fitted = PoseStep(*terms, weight, &step, P_x);
+    if (fitted) Studentize(kept, *P_x, terms);
+  }
+  if (!fitted) {
+    *T = T_start;
+    Linearize(filter, *T, obs, known, terms);
+  }
+  return fitted;
 }
 
 // Fits the pose robustly from *T (Cauchy weights at the gate's scale keep gross outliers
-// from dragging the pose they are then tested against), then gates, refits on the kept set
-// and gates again until the set stops changing. False when the pose could not be fitted.
+// from dragging the pose they are then tested against) and takes the first kept set from
+// that fit; then refits on the kept set and gates again until the set stops changing. False
+// when the pose could not be fitted (the terms are then tested against the initial pose).
 bool GateSingly(const InformationFilter& filter, const std::vector<FeatureObservation>& obs,
                 const FeatureCovariance& known, double gate, Vector6d* T, std::vector<Term>* terms,
                 std::vector<bool>* kept, Matrix6d* P_x) {
   Vector6d step;
+  Matrix6d P;
   std::vector<double> weight(terms->size(), 1.0);
-  bool fitted = false;
+  const Vector6d T_initial = *T;
+  bool robust = false;
   for (int it = 0; it < kRobustIterations; ++it) {
     Linearize(filter, *T, obs, known, terms);
     for (size_t k = 0; k < terms->size(); ++k) weight[k] = 1.0 / (1.0 + (*terms)[k].d2 / gate);
-    if (!PoseStep(*terms, weight, &step, P_x)) break;
+    if (!PoseStep(*terms, weight, &step, &P)) break;
     *T += step;
-    fitted = true;
+    robust = true;
   }
-  kept->assign(terms->size(), true);
+  if (!robust) *T = T_initial;
+  Linearize(filter, *T, obs, known, terms);
+  kept->resize(terms->size());
+  for (size_t k = 0; k < terms->size(); ++k) {
+    (*kept)[k] = (*terms)[k].valid && (!robust || (*terms)[k].d2 <= gate);
+  }
+  bool fitted = false;
   for (int round = 0; round < kGateRounds; ++round) {
-    // Gauss-Newton on the kept set to convergence, then the residuals at the fit.
-    bool converged = false;
-    for (int it = 0; it < kFitIterations && !converged; ++it) {
-      Linearize(filter, *T, obs, known, terms);
-      for (size_t k = 0; k < terms->size(); ++k) weight[k] = (*kept)[k] && (*terms)[k].valid;
-      if (!PoseStep(*terms, weight, &step, P_x)) break;
-      *T += step;
-      fitted = true;
-      converged = step.norm() < kConverged;
+    if (!FitKept(filter, obs, known, *kept, T, terms, P_x)) {
+      // The kept set does not determine the pose: test against the last fit (or the
+      // initial pose) without a fit's leverage.
+      for (size_t k = 0; k < terms->size(); ++k) {
+        (*kept)[k] = (*terms)[k].valid && (*terms)[k].d2 <= gate;
+      }
+      break;
     }
-    Linearize(filter, *T, obs, known, terms);
-    Studentize(*kept, *P_x, terms);
+    fitted = true;
     bool changed = false;
     for (size_t k = 0; k < terms->size(); ++k) {
       const bool keep = (*terms)[k].valid && (*terms)[k].d2 <= gate;
@@ -158,14 +213,7 @@ bool GateSingly(const InformationFilter& filter, const std::vector<FeatureObserv
     }
     if (!changed) break;
   }
-  // Without a fit the residuals are against the initial pose: still tested.
-  if (!fitted) {
-    Linearize(filter, *T, obs, known, terms);
-    for (size_t k = 0; k < terms->size(); ++k) {
-      (*kept)[k] = (*terms)[k].valid && (*terms)[k].d2 <= gate;
-    }
-  }
-  return fitted;
+  return fitted || robust;
 }
 
 }  // namespace
@@ -206,28 +254,34 @@ GatedObservations GateObservations(const InformationFilter& filter, const Vector
   std::vector<FeatureObservation> obs = observations;
   Vector6d T = T_w_c_initial;
   std::vector<bool> kept;
-  Matrix6d P_x;
+  Matrix6d P_x = Matrix6d::Zero();
   bool fitted = GateSingly(filter, obs, known, options.gate_chi2, &T, &terms, &kept, &P_x);
   const int min_known = options.min_known_features;
   if (joint && options.joint_compatibility) {
     int dof = 0;
+    double nis = 0.0;
+    bool testable = true;
     // A set that fails the joint test as a whole says the frame's noise is larger than Q
     // claims (blur, a colour/depth time offset under fast motion): its variance factor, the
     // NIS per degree of freedom, scales the frame's Q (never below the prior), and the
-    // single gates are taken again at that scale. The gates truncate the tails the factor
-    // is estimated from, so it is re-estimated on the new kept set until the set passes.
+    // single gates are taken again at that scale. The factor is that of the whole innovation
+    // covariance Q + J_f P_f J_f^T while only Q is scaled, so where the map's share matters
+    // one scaling falls short; the gates truncate the tails it is estimated from too. Hence
+    // it is re-estimated on the new kept set until the set passes.
     for (int round = 0; options.adapt_noise && round < kNoiseRounds; ++round) {
-      const double nis = JointNis(terms, kept, obs, known, &dof);
-      if (dof <= 0 || nis <= ChiSquareQuantile(options.joint_probability, dof)) break;
+      testable = JointNis(terms, kept, obs, known, &dof, &nis);
+      if (!testable || dof <= 0 || nis <= ChiSquareQuantile(options.joint_probability, dof)) break;
       const double scale = std::min(nis / dof, options.max_noise_scale / out.noise_scale);
       if (!(scale > 1.0)) break;
       for (FeatureObservation& o : obs) o.Q *= scale;
       out.noise_scale *= scale;
       fitted = GateSingly(filter, obs, known, options.gate_chi2, &T, &terms, &kept, &P_x) || fitted;
     }
-    for (;; ++out.stats.rejected_joint) {
-      const double nis_kept = JointNis(terms, kept, obs, known, &dof);
-      if (dof <= 0 || nis_kept <= ChiSquareQuantile(options.joint_probability, dof)) break;
+    // Then the worst observation against the fit of the rest goes, and the rest is refitted,
+    // until the set passes.
+    for (; testable; ++out.stats.rejected_joint) {
+      testable = JointNis(terms, kept, obs, known, &dof, &nis);
+      if (!testable || dof <= 0 || nis <= ChiSquareQuantile(options.joint_probability, dof)) break;
       if (out.stats.rejected_joint == kMaxJointDrops ||
           std::count(kept.begin(), kept.end(), true) <= min_known) {
         out.stats.incompatible_frames = 1;
@@ -239,9 +293,11 @@ GatedObservations GateObservations(const InformationFilter& filter, const Vector
         if (kept[k] && terms[k].d2 > worst_d2) worst_d2 = terms[k].d2, worst = k;
       }
       kept[worst] = false;
+      FitKept(filter, obs, known, kept, &T, &terms, &P_x);
     }
+    if (!testable) out.stats.incompatible_frames = 1;
+    out.stats.noise_scales.push_back(out.noise_scale);
   }
-  out.stats.noise_scales.push_back(out.noise_scale);
 
   std::vector<bool> keep_input(obs.size(), true);
   for (size_t k = 0; k < terms.size(); ++k) {

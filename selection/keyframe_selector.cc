@@ -184,7 +184,10 @@ class Run {
       }
       Vector6d T_w_c = InitialPose(c);
       if (filter_->options().gate_chi2 > 0.0) {
-        // Scored on what would enter: the observations that pass the single gates.
+        // Scored on the observations that pass the single gates, with the stated Q: a
+        // candidate is not credited for an outlier, at the price of candidates scored on
+        // slightly different common features. The joint test and the Q scaling are left to
+        // the frame that enters (a per-candidate scale would reward a noisier frame).
         GatedObservations gated =
             GateObservations(*filter_, T_w_c, scored, covariance, /*joint=*/false);
         scored = std::move(gated.observations);

@@ -1,6 +1,7 @@
 #include "backend/observation_gate.h"
 
 #include <algorithm>
+#include <cmath>
 #include <random>
 #include <vector>
 
@@ -21,6 +22,16 @@ bool Contains(const std::vector<FeatureObservation>& observations, int64_t featu
   return std::any_of(
       observations.begin(), observations.end(),
       [feature_id](const FeatureObservation& o) { return o.feature_id == feature_id; });
+}
+
+// The observations of `input` whose feature is not in `kept`.
+std::vector<FeatureObservation> DroppedFrom(const std::vector<FeatureObservation>& input,
+                                            const std::vector<FeatureObservation>& kept) {
+  std::vector<FeatureObservation> dropped;
+  for (const FeatureObservation& o : input) {
+    if (!Contains(kept, o.feature_id)) dropped.push_back(o);
+  }
+  return dropped;
 }
 
 // A filter holding the scene's first two poses (noisy observations), and the third pose's
@@ -117,8 +128,13 @@ TEST(ObservationGateTest, ScalesQOfAFrameNoisierThanStated) {
   EXPECT_GT(adapted.noise_scale, 4.0);
   EXPECT_LT(adapted.noise_scale, 16.0);
   EXPECT_LE(adapted.stats.rejected_share(), 0.05);
-  EXPECT_NEAR(adapted.observations[0].Q(0, 0), adapted.noise_scale * f.observations[0].Q(0, 0),
-              1e-12);
+  for (const FeatureObservation& kept : adapted.observations) {
+    const auto input = std::find_if(
+        f.observations.begin(), f.observations.end(),
+        [&kept](const FeatureObservation& o) { return o.feature_id == kept.feature_id; });
+    ASSERT_NE(input, f.observations.end());
+    EXPECT_NEAR(kept.Q(0, 0), adapted.noise_scale * input->Q(0, 0), 1e-12);
+  }
 
   options.adapt_noise = false;
   GateFixture g(options);
@@ -127,6 +143,96 @@ TEST(ObservationGateTest, ScalesQOfAFrameNoisierThanStated) {
       GateObservations(g.filter, g.initial, g.observations, g.known, /*joint=*/true);
   EXPECT_EQ(fixed.noise_scale, 1.0);
   EXPECT_GT(fixed.stats.rejected_share(), adapted.stats.rejected_share());
+}
+
+// Several wrong associations at once: the robust fit keeps them from dragging the pose the
+// first gate tests against, so each is rejected and every right one kept.
+TEST(ObservationGateTest, RejectsSeveralWrongAssociationsAtOnce) {
+  GateFixture f(GatedOptions());
+  const std::vector<size_t> known = f.KnownIndices();
+  ASSERT_GE(known.size(), 30u);
+  std::vector<FeatureObservation> clean = f.observations;
+  std::vector<int64_t> wrong;
+  // Features 0, 2, 4, 6 of the known ones take the measurement of one on the far side.
+  for (size_t w = 0; w < 8; w += 2) {
+    const size_t a = known[w];
+    const size_t c = known[known.size() - 1 - w];
+    ASSERT_GT((f.observations[c].z.head<2>() - f.observations[a].z.head<2>()).norm(), 30.0);
+    f.observations[a].z = f.observations[c].z;
+    wrong.push_back(f.observations[a].feature_id);
+  }
+  const GatedObservations gated =
+      GateObservations(f.filter, f.initial, f.observations, f.known, /*joint=*/true);
+  for (const int64_t id : wrong) EXPECT_FALSE(Contains(gated.observations, id)) << id;
+  EXPECT_EQ(gated.stats.rejected, 4);
+  EXPECT_EQ(gated.noise_scale, 1.0);
+  std::vector<FeatureObservation> right;
+  for (const FeatureObservation& o : clean) {
+    if (std::find(wrong.begin(), wrong.end(), o.feature_id) == wrong.end()) right.push_back(o);
+  }
+  const GatedObservations reference =
+      GateObservations(f.filter, f.initial, right, f.known, /*joint=*/true);
+  ASSERT_TRUE(gated.pose_fitted);
+  EXPECT_EQ(reference.stats.rejected, 0);
+  EXPECT_LT((gated.T_w_c - reference.T_w_c).norm(), 1e-6);
+}
+
+// Two known features leave the rotation about the line through them free: no pose is fitted
+// (the initial one stays), and the two are tested against it.
+TEST(ObservationGateTest, TwoKnownFeaturesFitNoPose) {
+  GateFixture f(GatedOptions());
+  const std::vector<size_t> known = f.KnownIndices();
+  std::vector<FeatureObservation> two;
+  for (size_t i = 0; i < f.observations.size(); ++i) {
+    const bool is_known = f.filter.HasFeature(f.observations[i].feature_id);
+    if (!is_known || i == known[0] || i == known[1]) two.push_back(f.truth[i]);
+  }
+  const GatedObservations gated =
+      GateObservations(f.filter, f.scene.poses[2], two, f.known, /*joint=*/true);
+  EXPECT_FALSE(gated.pose_fitted);
+  EXPECT_EQ(gated.T_w_c, f.scene.poses[2]);
+  EXPECT_EQ(gated.stats.tested, 2);
+  EXPECT_EQ(gated.stats.rejected, 0);
+  EXPECT_EQ(gated.observations.size(), two.size());
+}
+
+// An error of squared Mahalanobis length d2 against the observation's innovation covariance
+// Q + J_f P_f J_f^T, in a direction that alternates with `sign`.
+Eigen::Vector3d ErrorOfLength(const GateFixture& f, size_t i, double d2, double sign) {
+  const FeatureObservation& o = f.observations[i];
+  Matrix36d J_x;
+  Eigen::Matrix3d J_f;
+  PredictObservation(f.scene.poses[2], f.filter.feature(o.feature_id), f.scene.camera, &J_x, &J_f);
+  const int block = f.known.index.at(o.feature_id);
+  const Eigen::Matrix3d S =
+      o.Q + J_f * f.known.covariance.block<3, 3>(3 * block, 3 * block) * J_f.transpose();
+  const Eigen::Matrix3d L = S.llt().matrixL();
+  return sign * std::sqrt(d2) * L * Eigen::Vector3d(1.0, -1.0, 0.0).normalized();
+}
+
+// Errors each inside the single gate (d2 = 13 of 16.27), on a third of the features: together
+// they fail the joint test, and with the Q scaling off the worst are dropped, and the pose
+// refitted, until the set passes; only planted ones go.
+TEST(ObservationGateTest, JointTestDropsTheWorstUntilTheSetPasses) {
+  InformationFilterOptions options = GatedOptions();
+  options.adapt_noise = false;
+  GateFixture f(options);
+  const std::vector<size_t> known = f.KnownIndices();
+  ASSERT_GE(known.size(), 45u);
+  std::vector<int64_t> planted;
+  for (size_t w = 0; w < 15; ++w) {
+    const size_t i = known[3 * w];
+    f.observations[i].z = f.truth[i].z + ErrorOfLength(f, i, 13.0, w % 2 == 0 ? 1.0 : -1.0);
+    planted.push_back(f.observations[i].feature_id);
+  }
+  const GatedObservations gated =
+      GateObservations(f.filter, f.initial, f.observations, f.known, /*joint=*/true);
+  EXPECT_GT(gated.stats.rejected_joint, 0);
+  EXPECT_EQ(gated.stats.incompatible_frames, 0);
+  for (const FeatureObservation& o : DroppedFrom(f.observations, gated.observations)) {
+    EXPECT_NE(std::find(planted.begin(), planted.end(), o.feature_id), planted.end())
+        << "feature " << o.feature_id << " was not planted";
+  }
 }
 
 }  // namespace
