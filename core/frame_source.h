@@ -44,6 +44,10 @@ class FrameSource {
   // The candidate (as its last Prepare returned it) has entered the filter: its frame is a
   // base frame from now on and its new features are known.
   virtual void Commit(const CandidateFrame& candidate) = 0;
+  // The caller will not prepare `frame` again, nor register against it (it is not a base
+  // frame): the source may free what it keeps of it. Preparing it anyway still gives the same
+  // candidate, from the frame processed anew.
+  virtual void Release(int /*frame*/) {}
 };
 
 }  // namespace ieslam

@@ -271,4 +271,13 @@ void RgbdFrameSource::Commit(const CandidateFrame& candidate) {
   }
 }
 
+void RgbdFrameSource::Release(int frame) {
+  if (feature_ids_.count(frame) > 0) return;  // a base frame
+  processed_.erase(frame);
+  pending_.erase(frame);
+  for (auto it = registrations_.begin(); it != registrations_.end();) {
+    it = it->first.second == frame ? registrations_.erase(it) : std::next(it);
+  }
+}
+
 }  // namespace ieslam

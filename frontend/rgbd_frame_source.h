@@ -1,7 +1,7 @@
 // The selector's view of a real sequence (core/frame_source.h): frames go through the front
-// end once (SIFT, lifting; the processed frames are kept, so dropped frames can be matched
-// again for recovery), candidates are matched against the base-frame database (FLANN) and
-// registered exactly (ratio + mutual matching, RANSAC) to the best-ranked base frames.
+// end once (SIFT, lifting; the processed frames are kept until released, so dropped frames
+// can be matched again for recovery), candidates are matched against the base-frame database
+// (FLANN) and registered exactly (ratio + mutual matching, RANSAC) to the best-ranked base frames.
 //
 // Data association follows the paper: a frame's keypoint inherits the feature id of the base
 // frame keypoint it is an inlier match of; when the frame enters the filter, its unmatched
@@ -70,6 +70,9 @@ class RgbdFrameSource : public FrameSource {
   CandidateFrame Prepare(int frame) override;
   CandidateFrame PrepareAgainst(int frame, int base_frame) override;
   void Commit(const CandidateFrame& candidate) override;
+  // Frees the processed frame (features, lifted points) and its cached registrations; a
+  // base frame stays.
+  void Release(int frame) override;
 
   const SourceTimings& timings() const { return timings_; }
   // The processed frame (features and lifted points), processing it now if needed. A frame
@@ -78,6 +81,8 @@ class RgbdFrameSource : public FrameSource {
   // an empty frame and is unusable: its candidates are never registered and carry the
   // reason, so one bad frame is a counted skip rather than the end of the run.
   const ProcessedFrame& Processed(int frame);
+  // Processed frames held: the base frames and those processed and not released.
+  int frames_kept() const { return static_cast<int>(processed_.size()); }
   // Why `frame` is unusable (see Processed), or "" when it is usable or not processed yet.
   std::string UnusableReason(int frame) const;
 

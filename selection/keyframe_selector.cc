@@ -82,6 +82,13 @@ class Run {
     FramePlacement& placement = result_->frames[c.frame];
     placement.selected = placement.placed = true;
     placement.skip_reason.clear();
+    // The dropped frames before the new base frame are behind every later recovery (which
+    // looks at frames after the last base frame only); interval placement revisits them.
+    if (options_.kind != SelectorKind::kInterval) {
+      for (int d = last_base_ + 1; d < c.frame; ++d) {
+        if (!result_->frames[d].selected) source_->Release(d);
+      }
+    }
     last_base_ = c.frame;
     return true;
   }

@@ -46,5 +46,33 @@ TEST(RgbdFrameSourceTest, OrientationSiblingsAreOneFeatureObservedOnce) {
   }
 }
 
+// A released frame is freed and, prepared again, gives the same candidate from the frame
+// processed anew; a base frame is never released.
+TEST(RgbdFrameSourceTest, AReleasedFrameIsFreedAndPreparedAgainAlike) {
+  const std::unique_ptr<Dataset> dataset = OpenDataset(kSevenScenes, DatasetOptions());
+  RgbdFrameSource source(*dataset, RgbdSourceOptions());
+  source.Commit(source.PrepareFirst(0));
+  const CandidateFrame before = source.Prepare(4);
+  ASSERT_TRUE(before.registered) << before.reason;
+  source.Prepare(6);
+  EXPECT_EQ(source.frames_kept(), 3);
+
+  source.Release(4);
+  EXPECT_EQ(source.frames_kept(), 2);
+  source.Release(0);  // the base frame stays
+  EXPECT_EQ(source.frames_kept(), 2);
+
+  const CandidateFrame again = source.Prepare(4);
+  ASSERT_TRUE(again.registered) << again.reason;
+  EXPECT_EQ(again.base_frame, before.base_frame);
+  EXPECT_TRUE(again.T_base_c.isApprox(before.T_base_c, 0.0));
+  ASSERT_EQ(again.observations.size(), before.observations.size());
+  for (size_t i = 0; i < again.observations.size(); ++i) {
+    EXPECT_EQ(again.observations[i].feature_id, before.observations[i].feature_id);
+    EXPECT_EQ(again.observations[i].z, before.observations[i].z);
+    EXPECT_EQ(again.observations[i].Q, before.observations[i].Q);
+  }
+}
+
 }  // namespace
 }  // namespace ieslam
