@@ -99,7 +99,7 @@ SimulationStudy RunSimulationStudy(
   if (!options.Check(&why)) throw ConfigError(why);
   const std::vector<SelectorOptions> rows_options = options.Rows();
   const int rows_per_run = static_cast<int>(rows_options.size());
-  // Each row's metrics per run, kept light: the pose errors only of the first run.
+  // Each row's values per run (row_runs); the per-pose errors only of the first run.
   SimulationStudy study;
   study.first_run = options.first_run;
   for (const SelectorOptions& row : rows_options) {

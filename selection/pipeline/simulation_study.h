@@ -65,7 +65,8 @@ struct SimulationStudy {
   int first_run = 0;                   // the index of row_runs' first run
   int runs_done = 0;
   bool interrupted = false;
-  // The first run's per-pose errors, sigmas and NEES of every row: the paper's Figs. 3-4.
+  // The first run's (run first_run's) per-pose errors, sigmas and NEES of every row: the
+  // paper's Figs. 3-4. Left empty by a merge of shards.
   Json first_run_pose_errors = Json::Array();
 };
 
