@@ -9,7 +9,8 @@ run_tiny_workflow() {
     --config ieslam="$IESLAM" outdir="$dir/out" --directory "$dir" --quiet "$@"
 }
 
-# check_results DIR: RESULTS.md and results.csv list every combination of the tiny config.
+# check_results DIR: RESULTS.md and results.csv list every combination of the tiny config,
+# and RESULTS.md every run of synth_cut (made to fail) among the failed runs.
 check_results() {
   /usr/bin/python3 - "$1/out" <<'PY'
 import csv, sys
@@ -17,16 +18,26 @@ out = sys.argv[1]
 page = open(f"{out}/RESULTS.md").read()
 rows = list(csv.DictReader(open(f"{out}/results.csv")))
 runs = list(csv.DictReader(open(f"{out}/runs.csv")))
-want = {("synth_tiny", "info", "3"), ("synth_tiny", "all", "0")}
+want = {(d, s, b) for d in ("synth_tiny", "synth_cut") for s, b in (("info", "3"), ("all", "0"))}
 got = {(r["dataset"], r["selector"], r["buffer"]) for r in rows}
 assert got == want, f"results.csv groups {got}, expected {want}"
-assert len(runs) == 4 and all(r["ok"] == "1" for r in runs), f"runs.csv: {runs}"
+assert len(runs) == 8, f"runs.csv has {len(runs)} runs, expected 8"
+for r in runs:
+    assert r["ok"] == ("1" if r["dataset"] == "synth_tiny" else "0"), f"runs.csv: {r}"
 for r in rows:
-    assert r["ok"] == "2" and r["ate_filter_m_mean"], f"results.csv row {r}"
+    if r["dataset"] == "synth_tiny":
+        assert r["ok"] == "2" and r["ate_filter_m_mean"], f"results.csv row {r}"
 for name in ("| synth_tiny | info (buffer 3) | 2/2 |", "| synth_tiny | all | 2/2 |",
-             "Monte-Carlo simulation", "## Failed runs", "commit `"):
+             "| synth_cut | all | 0/2 |", "Monte-Carlo simulation", "commit `"):
     assert name in page, f"RESULTS.md lacks '{name}'"
-print(f"{out}: {len(runs)} runs, {len(rows)} groups, all listed")
+# Every failed run in the failed-runs table, with its message.
+failed = page.split("## Failed runs", 1)[1].split("\n## ", 1)[0]
+for seed in ("1", "2"):
+    for selector, buffer in (("info", "3"), ("all", "0")):
+        line = f"| synth_cut | {selector} | {buffer} | {seed} | run exited 3 |"
+        assert line in failed, f"RESULTS.md's failed runs lack '{line}'"
+assert "first = 500" in failed, "RESULTS.md's failed runs lack the log's tail"
+print(f"{out}: {len(runs)} runs, {len(rows)} groups, all listed, the 4 failed ones too")
 PY
 }
 

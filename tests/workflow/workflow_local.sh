@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # The tiny benchmark workflow on this machine with 2 cores: every combination reaches
-# RESULTS.md and results.csv, and a second invocation has nothing to redo.
+# RESULTS.md and results.csv, the runs made to fail are in its failed-runs table with their
+# log, and a second invocation has nothing to redo.
 #   workflow_local.sh IESLAM SOURCE_DIR
 set -euo pipefail
 IESLAM=$1
