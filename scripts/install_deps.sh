@@ -8,6 +8,7 @@ packages=(
   libceres-dev libeigen3-dev libopencv-dev libopengv-dev libflann-dev libsuitesparse-dev
   libgtest-dev libbenchmark-dev
   python3-matplotlib
+  snakemake slurm-wlm slurm-client munge time
 )
 
 missing=()

@@ -9,7 +9,24 @@
 namespace ieslam {
 namespace {
 
-void Accumulate(const KnownAssociationMetrics& m, double weight, StudyRow* row) {
+StudyRunValues RunValues(const KnownAssociationMetrics& m) {
+  StudyRunValues v;
+  v.frames_total = m.frames_total;
+  v.frames_used = m.frames_used;
+  v.state_dim = m.state_dim;
+  v.seconds = m.seconds;
+  v.seconds_selection = m.seconds_selection;
+  v.seconds_filter = m.seconds_filter;
+  v.final_pose_error_m = m.final_pose_error_m;
+  v.ate_rmse_m = m.ate_rmse_m;
+  v.mean_nees = m.mean_nees;
+  v.within_2sigma = m.within_2sigma;
+  v.refined_ate_rmse_m = m.refined_ate_rmse_m;
+  v.seconds_ba = m.seconds_ba;
+  return v;
+}
+
+void Accumulate(const StudyRunValues& m, double weight, StudyRow* row) {
   row->frames_total += weight * m.frames_total;
   row->frames_used += weight * m.frames_used;
   row->state_dim += weight * m.state_dim;
@@ -47,24 +64,6 @@ Json PoseErrorsToJson(const SelectorOptions& row, const KnownAssociationMetrics&
       .Set("poses", errors);
 }
 
-// The rows' means over the runs every row completed (a run cut short counts only when it
-// is the first).
-std::vector<StudyRow> MeanRows(const std::vector<SelectorOptions>& rows_options,
-                               const std::vector<std::vector<KnownAssociationMetrics>>& per_row,
-                               size_t runs_done) {
-  std::vector<StudyRow> rows;
-  for (size_t i = 0; i < rows_options.size() && runs_done > 0; ++i) {
-    if (per_row[i].size() < runs_done) continue;
-    StudyRow row;
-    row.selector = SelectorKindName(rows_options[i].kind);
-    row.buffer = BufferOfRow(rows_options[i]);
-    row.nees_band = NeesBand(6, static_cast<int>(runs_done));
-    for (size_t r = 0; r < runs_done; ++r) Accumulate(per_row[i][r], 1.0 / runs_done, &row);
-    rows.push_back(row);
-  }
-  return rows;
-}
-
 }  // namespace
 
 bool SimulationStudyOptions::Check(std::string* why) const {
@@ -73,6 +72,7 @@ bool SimulationStudyOptions::Check(std::string* why) const {
     return false;
   };
   if (runs < 1) return fail("runs must be >= 1, got " + std::to_string(runs));
+  if (first_run < 0) return fail("first_run must be >= 0, got " + std::to_string(first_run));
   if (buffers.empty()) return fail("buffers: at least one buffer size");
   return simulation.Check(why) && selector.Check(why) && filter.Check(why) && ba.Check(why);
 }
@@ -99,26 +99,27 @@ SimulationStudy RunSimulationStudy(
   if (!options.Check(&why)) throw ConfigError(why);
   const std::vector<SelectorOptions> rows_options = options.Rows();
   const int rows_per_run = static_cast<int>(rows_options.size());
-  // Each row's metrics per run, kept light: the pose errors only of the first run.
-  std::vector<std::vector<KnownAssociationMetrics>> per_row(rows_options.size());
+  // Each row's values per run (row_runs); the per-pose errors only of the first run.
   SimulationStudy study;
+  study.first_run = options.first_run;
+  for (const SelectorOptions& row : rows_options) {
+    study.row_runs.push_back({SelectorKindName(row.kind), BufferOfRow(row), {}});
+  }
   SimulationOptions simulation = options.simulation;
   simulation.scene_seed = options.seed;
   for (int run = 0; run < options.runs && !study.interrupted; ++run) {
     study.interrupted = stop && stop();
     if (study.interrupted) break;
-    simulation.noise_seed = options.seed + static_cast<uint32_t>(run) + 1;
+    simulation.noise_seed = options.seed + static_cast<uint32_t>(options.first_run + run) + 1;
     const SimulatedDataset data = SimulatePaperScenario(simulation);
     const KnownAssociationInput input{data.observations, data.T_w_c_true, data.camera};
     for (int i = 0; i < rows_per_run; ++i) {
       study.interrupted = stop && stop();
       if (study.interrupted) break;
-      KnownAssociationMetrics metrics =
+      const KnownAssociationMetrics metrics =
           RunKnownAssociation(input, rows_options[i], options.filter, &options.ba);
       if (run == 0) study.first_run_pose_errors.Push(PoseErrorsToJson(rows_options[i], metrics));
-      metrics.pose_errors.clear();
-      metrics.selection = SelectionResult();
-      per_row[i].push_back(std::move(metrics));
+      study.row_runs[i].runs.push_back(RunValues(metrics));
       if (progress) {
         progress(run * rows_per_run + i + 1, options.runs * rows_per_run,
                  SelectorKindName(rows_options[i].kind) + " " +
@@ -126,10 +127,25 @@ SimulationStudy RunSimulationStudy(
       }
     }
   }
-  const size_t runs_done = per_row.back().empty() ? per_row.front().size() : per_row.back().size();
+  const std::vector<StudyRunValues>& last = study.row_runs.back().runs;
+  const size_t runs_done = last.empty() ? study.row_runs.front().runs.size() : last.size();
   study.runs_done = static_cast<int>(runs_done);
-  study.rows = MeanRows(rows_options, per_row, runs_done);
+  study.rows = MeanStudyRows(study.row_runs, runs_done);
   return study;
+}
+
+std::vector<StudyRow> MeanStudyRows(const std::vector<StudyRowRuns>& row_runs, size_t runs_done) {
+  std::vector<StudyRow> rows;
+  for (size_t i = 0; i < row_runs.size() && runs_done > 0; ++i) {
+    if (row_runs[i].runs.size() < runs_done) continue;
+    StudyRow row;
+    row.selector = row_runs[i].selector;
+    row.buffer = row_runs[i].buffer;
+    row.nees_band = NeesBand(6, static_cast<int>(runs_done));
+    for (size_t r = 0; r < runs_done; ++r) Accumulate(row_runs[i].runs[r], 1.0 / runs_done, &row);
+    rows.push_back(row);
+  }
+  return rows;
 }
 
 Json StudyRowsToJson(const std::vector<StudyRow>& rows) {
@@ -162,7 +178,11 @@ std::string StudyMarkdown(const SimulationStudy& study, const SimulationStudyOpt
   std::ostringstream s;
   s << "# ieslam simulate: the paper's Table I\n\n"
     << "Trajectory `" << ToString(options.simulation.trajectory.kind) << "`, " << study.runs_done
-    << " Monte-Carlo run(s), seed " << options.seed
+    << " Monte-Carlo run(s)";
+  if (study.first_run > 0) {
+    s << " (runs " << study.first_run << " to " << study.first_run + study.runs_done - 1 << ")";
+  }
+  s << ", seed " << options.seed
     << "; means over the runs. Paper (§VI-A, buffer 3): 163 of 300 frames, about 1/2 the time "
        "and 2/3 the matrix dimension of the all-frames EIF.\n\n"
     << "| selector | buffer | frames used | state dim | time (s) | final pose error (m) | "

@@ -21,6 +21,9 @@ namespace ieslam {
 struct SimulationStudyOptions {
   SimulationOptions simulation;  // the scene (its scene_seed) and the sensor
   int runs = 1;
+  // The first run's index: a shard of a larger study runs first_run .. first_run + runs - 1,
+  // each drawing the noise one process running them all would.
+  int first_run = 0;
   uint32_t seed = 1;                        // scene seed; run r draws its noise from seed + r + 1
   std::vector<int> buffers = {2, 3, 4, 5};  // one info row each, after the all-frames row
   SelectorOptions selector;                 // every row's, but for its kind and buffer
@@ -42,11 +45,28 @@ struct StudyRow {
   std::pair<double, double> nees_band;  // of the mean NEES over the runs (6 dof)
 };
 
+// One run's values of one row: what the row's means are computed from.
+struct StudyRunValues {
+  double frames_total = 0, frames_used = 0, state_dim = 0, seconds = 0, seconds_selection = 0,
+         seconds_filter = 0, final_pose_error_m = 0, ate_rmse_m = 0, mean_nees = 0,
+         within_2sigma = 0, refined_ate_rmse_m = -1, seconds_ba = 0;
+};
+
+// A row's values over the runs, in run order.
+struct StudyRowRuns {
+  std::string selector;
+  int buffer = 0;  // 0 for the all-frames row
+  std::vector<StudyRunValues> runs;
+};
+
 struct SimulationStudy {
-  std::vector<StudyRow> rows;  // the rows every completed run has
+  std::vector<StudyRow> rows;          // the rows every completed run has
+  std::vector<StudyRowRuns> row_runs;  // every row's per-run values (rows then runs)
+  int first_run = 0;                   // the index of row_runs' first run
   int runs_done = 0;
   bool interrupted = false;
-  // The first run's per-pose errors, sigmas and NEES of every row: the paper's Figs. 3-4.
+  // The first run's (run first_run's) per-pose errors, sigmas and NEES of every row: the
+  // paper's Figs. 3-4. Left empty by a merge of shards.
   Json first_run_pose_errors = Json::Array();
 };
 
@@ -57,6 +77,11 @@ SimulationStudy RunSimulationStudy(
     const SimulationStudyOptions& options,
     const std::function<void(int, int, const std::string&)>& progress = nullptr,
     const std::function<bool()>& stop = nullptr);
+
+// The means of the rows over their first `runs_done` runs; a row with fewer runs is left out.
+// Sums in run order with weight 1 / runs_done, so that the same per-run values give the same
+// bits whether one process ran them or shards did (and a merge recomputes them).
+std::vector<StudyRow> MeanStudyRows(const std::vector<StudyRowRuns>& row_runs, size_t runs_done);
 
 // report.json's "table" and table.md.
 Json StudyRowsToJson(const std::vector<StudyRow>& rows);
