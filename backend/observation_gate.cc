@@ -216,6 +216,58 @@ bool GateSingly(const InformationFilter& filter, const std::vector<FeatureObserv
   return fitted || robust;
 }
 
+// The joint test of the kept set (see the header): first Q scaled by the frame's variance
+// factor and the single gates taken again, then the worst observation dropped, with a refit
+// after each, until the set passes. Updates the observations' Q, the pose, the terms, the
+// kept set, P_x, *noise_scale and the counts; true when it fitted a pose.
+bool TestJointly(const InformationFilter& filter, const FeatureCovariance& known,
+                 std::vector<FeatureObservation>* obs, Vector6d* T, std::vector<Term>* terms,
+                 std::vector<bool>* kept, Matrix6d* P_x, double* noise_scale,
+                 GateStatistics* stats) {
+  const InformationFilterOptions& options = filter.options();
+  bool fitted = false;
+  int dof = 0;
+  double nis = 0.0;
+  bool testable = true;
+  // A set that fails the joint test as a whole says the frame's noise is larger than Q
+  // claims (blur, a colour/depth time offset under fast motion): its variance factor, the
+  // NIS per degree of freedom, scales the frame's Q (never below the prior), and the
+  // single gates are taken again at that scale. The factor is that of the whole innovation
+  // covariance Q + J_f P_f J_f^T while only Q is scaled, so where the map's share matters
+  // one scaling falls short; the gates truncate the tails it is estimated from too. Hence
+  // it is re-estimated on the new kept set until the set passes.
+  for (int round = 0; options.adapt_noise && round < kNoiseRounds; ++round) {
+    testable = JointNis(*terms, *kept, *obs, known, &dof, &nis);
+    if (!testable || dof <= 0 || nis <= ChiSquareQuantile(options.joint_probability, dof)) break;
+    const double scale = std::min(nis / dof, options.max_noise_scale / *noise_scale);
+    if (!(scale > 1.0)) break;
+    for (FeatureObservation& o : *obs) o.Q *= scale;
+    *noise_scale *= scale;
+    fitted = GateSingly(filter, *obs, known, options.gate_chi2, T, terms, kept, P_x) || fitted;
+  }
+  // Then the worst observation against the fit of the rest goes, and the rest is refitted,
+  // until the set passes.
+  for (; testable; ++stats->rejected_joint) {
+    testable = JointNis(*terms, *kept, *obs, known, &dof, &nis);
+    if (!testable || dof <= 0 || nis <= ChiSquareQuantile(options.joint_probability, dof)) break;
+    if (stats->rejected_joint == kMaxJointDrops ||
+        std::count(kept->begin(), kept->end(), true) <= options.min_known_features) {
+      stats->incompatible_frames = 1;
+      break;
+    }
+    size_t worst = 0;
+    double worst_d2 = -1.0;
+    for (size_t k = 0; k < terms->size(); ++k) {
+      if ((*kept)[k] && (*terms)[k].d2 > worst_d2) worst_d2 = (*terms)[k].d2, worst = k;
+    }
+    (*kept)[worst] = false;
+    FitKept(filter, *obs, known, *kept, T, terms, P_x);
+  }
+  if (!testable) stats->incompatible_frames = 1;
+  stats->noise_scales.push_back(*noise_scale);
+  return fitted;
+}
+
 }  // namespace
 
 void GateStatistics::Add(const GateStatistics& other) {
@@ -256,47 +308,10 @@ GatedObservations GateObservations(const InformationFilter& filter, const Vector
   std::vector<bool> kept;
   Matrix6d P_x = Matrix6d::Zero();
   bool fitted = GateSingly(filter, obs, known, options.gate_chi2, &T, &terms, &kept, &P_x);
-  const int min_known = options.min_known_features;
   if (joint && options.joint_compatibility) {
-    int dof = 0;
-    double nis = 0.0;
-    bool testable = true;
-    // A set that fails the joint test as a whole says the frame's noise is larger than Q
-    // claims (blur, a colour/depth time offset under fast motion): its variance factor, the
-    // NIS per degree of freedom, scales the frame's Q (never below the prior), and the
-    // single gates are taken again at that scale. The factor is that of the whole innovation
-    // covariance Q + J_f P_f J_f^T while only Q is scaled, so where the map's share matters
-    // one scaling falls short; the gates truncate the tails it is estimated from too. Hence
-    // it is re-estimated on the new kept set until the set passes.
-    for (int round = 0; options.adapt_noise && round < kNoiseRounds; ++round) {
-      testable = JointNis(terms, kept, obs, known, &dof, &nis);
-      if (!testable || dof <= 0 || nis <= ChiSquareQuantile(options.joint_probability, dof)) break;
-      const double scale = std::min(nis / dof, options.max_noise_scale / out.noise_scale);
-      if (!(scale > 1.0)) break;
-      for (FeatureObservation& o : obs) o.Q *= scale;
-      out.noise_scale *= scale;
-      fitted = GateSingly(filter, obs, known, options.gate_chi2, &T, &terms, &kept, &P_x) || fitted;
-    }
-    // Then the worst observation against the fit of the rest goes, and the rest is refitted,
-    // until the set passes.
-    for (; testable; ++out.stats.rejected_joint) {
-      testable = JointNis(terms, kept, obs, known, &dof, &nis);
-      if (!testable || dof <= 0 || nis <= ChiSquareQuantile(options.joint_probability, dof)) break;
-      if (out.stats.rejected_joint == kMaxJointDrops ||
-          std::count(kept.begin(), kept.end(), true) <= min_known) {
-        out.stats.incompatible_frames = 1;
-        break;
-      }
-      size_t worst = 0;
-      double worst_d2 = -1.0;
-      for (size_t k = 0; k < terms.size(); ++k) {
-        if (kept[k] && terms[k].d2 > worst_d2) worst_d2 = terms[k].d2, worst = k;
-      }
-      kept[worst] = false;
-      FitKept(filter, obs, known, kept, &T, &terms, &P_x);
-    }
-    if (!testable) out.stats.incompatible_frames = 1;
-    out.stats.noise_scales.push_back(out.noise_scale);
+    fitted =
+        TestJointly(filter, known, &obs, &T, &terms, &kept, &P_x, &out.noise_scale, &out.stats) ||
+        fitted;
   }
 
   std::vector<bool> keep_input(obs.size(), true);
