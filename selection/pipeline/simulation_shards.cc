@@ -103,6 +103,38 @@ std::string StudyRunsTsv(const SimulationStudy& study, const SimulationStudyOpti
   return s.str();
 }
 
+namespace {
+
+// One `# key<TAB>value` line of a runs file's header into the shard (`runs`: the run count it
+// declares); a `#` line without a tab is a comment.
+void ReadHeaderLine(const std::string& line, const std::string& path, int line_number,
+                    StudyShard* shard, int* runs) {
+  const size_t tab = line.find('\t');
+  if (tab == std::string::npos) return;
+  const std::string key = line.substr(2, tab - 2), value = line.substr(tab + 1);
+  if (key == "seed") {
+    shard->seed = static_cast<uint32_t>(ParseInt(value, path, line_number));
+  } else if (key == "trajectory") {
+    shard->trajectory = value;
+  } else if (key == "poses") {
+    shard->poses = ParseInt(value, path, line_number);
+  } else if (key == "buffers") {
+    std::istringstream list(value);
+    std::string item;
+    while (std::getline(list, item, ',')) {
+      shard->buffers.push_back(ParseInt(item, path, line_number));
+    }
+  } else if (key == "options") {
+    shard->options_json = value;
+  } else if (key == "first_run") {
+    shard->study.first_run = ParseInt(value, path, line_number);
+  } else if (key == "runs") {
+    *runs = ParseInt(value, path, line_number);
+  }
+}
+
+}  // namespace
+
 StudyShard ReadStudyRunsTsv(const std::string& path) {
   std::istringstream in(ReadInputFile(path, "simulate runs file", 1ull << 32));
   StudyShard shard;
@@ -116,28 +148,7 @@ StudyShard ReadStudyRunsTsv(const std::string& path) {
     ++line_number;
     if (line.empty()) continue;
     if (line[0] == '#') {
-      const size_t tab = line.find('\t');
-      if (tab == std::string::npos) continue;  // a comment
-      const std::string key = line.substr(2, tab - 2), value = line.substr(tab + 1);
-      if (key == "seed") {
-        shard.seed = static_cast<uint32_t>(ParseInt(value, path, line_number));
-      } else if (key == "trajectory") {
-        shard.trajectory = value;
-      } else if (key == "poses") {
-        shard.poses = ParseInt(value, path, line_number);
-      } else if (key == "buffers") {
-        std::istringstream list(value);
-        std::string item;
-        while (std::getline(list, item, ',')) {
-          shard.buffers.push_back(ParseInt(item, path, line_number));
-        }
-      } else if (key == "options") {
-        shard.options_json = value;
-      } else if (key == "first_run") {
-        shard.study.first_run = ParseInt(value, path, line_number);
-      } else if (key == "runs") {
-        runs = ParseInt(value, path, line_number);
-      }
+      ReadHeaderLine(line, path, line_number, &shard, &runs);
       continue;
     }
     if (!have_columns) {
