@@ -48,6 +48,9 @@ class FrameSource {
   // frame): the source may free what it keeps of it. Preparing it anyway still gives the same
   // candidate, from the frame processed anew.
   virtual void Release(int /*frame*/) {}
+  // The selection is over: nothing is prepared, committed or released any more, and the
+  // source may free everything it keeps (the base frames too).
+  virtual void Finish() {}
 };
 
 }  // namespace ieslam

@@ -42,9 +42,24 @@ DenseMap::DenseMap(const DenseMapOptions& options) : options_(options) {
 }
 
 void DenseMap::AddFrame(const Frame& frame, const Rig& rig, const Eigen::Isometry3d& T_w_c) {
+  AddPoints(FramePoints(frame, rig, T_w_c));
+}
+
+void DenseMap::AddPoints(const std::vector<Point>& points) {
+  for (const Point& point : points) {
+    Voxel& voxel = voxels_[point.voxel];
+    voxel.sum += point.p_w;
+    for (int i = 0; i < 3; ++i) voxel.colour_sum[i] += point.rgb[i];
+    ++voxel.count;
+  }
+}
+
+std::vector<DenseMap::Point> DenseMap::FramePoints(const Frame& frame, const Rig& rig,
+                                                   const Eigen::Isometry3d& T_w_c) const {
   CHECK_EQ(frame.depth.type(), CV_32F);
   CHECK_EQ(frame.colour.type(), CV_8UC3);
   const Eigen::Isometry3d T_w_range = T_w_c * rig.T_colour_range;
+  std::vector<Point> points;
   for (int y = 0; y < frame.depth.rows; y += options_.pixel_step) {
     for (int x = 0; x < frame.depth.cols; x += options_.pixel_step) {
       const float value = frame.depth.at<float>(y, x);
@@ -56,13 +71,13 @@ void DenseMap::AddFrame(const Frame& frame, const Rig& rig, const Eigen::Isometr
       if (!rig.colour.InImage(pixel)) continue;
       const cv::Vec3b bgr = frame.colour.at<cv::Vec3b>(static_cast<int>(std::lround(pixel.y())),
                                                        static_cast<int>(std::lround(pixel.x())));
-      const Eigen::Vector3d p_w = T_w_range * p_range;
-      Voxel& voxel = voxels_[VoxelKey(p_w, options_.voxel_size_m)];
-      voxel.sum += p_w;
-      voxel.colour_sum += Eigen::Vector3d(bgr[2], bgr[1], bgr[0]);
-      ++voxel.count;
+      Point& point = points.emplace_back();
+      point.p_w = T_w_range * p_range;
+      point.voxel = VoxelKey(point.p_w, options_.voxel_size_m);
+      for (int i = 0; i < 3; ++i) point.rgb[i] = bgr[2 - i];
     }
   }
+  return points;
 }
 
 void DenseMap::WritePly(const std::string& path) const {
@@ -81,7 +96,8 @@ void DenseMap::WritePly(const std::string& path) const {
         for (int64_t key : keys) {
           const Voxel& v = voxels_.at(key);
           const Eigen::Vector3f p = (v.sum / v.count).cast<float>();
-          const Eigen::Vector3d c = v.colour_sum / v.count;
+          const Eigen::Vector3d c =
+              Eigen::Vector3d(v.colour_sum[0], v.colour_sum[1], v.colour_sum[2]) / v.count;
           std::memcpy(record, p.data(), 12);  // x86-64 and ARM64 are little-endian
           for (int i = 0; i < 3; ++i) {
             record[12 + i] =

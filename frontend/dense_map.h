@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <string>
 #include <unordered_map>
+#include <vector>
 
 #include <Eigen/Geometry>
 
@@ -28,9 +29,21 @@ class DenseMap {
  public:
   explicit DenseMap(const DenseMapOptions& options);
 
+  // A frame's coloured range points in the world, each with its voxel, in pixel order.
+  struct Point {
+    int64_t voxel = 0;
+    Eigen::Vector3d p_w = Eigen::Vector3d::Zero();
+    uint8_t rgb[3] = {0, 0, 0};
+  };
+
   // Adds a frame's range cloud at the colour camera pose T_w_c. Range points that the colour
   // camera does not see are left out (they have no colour).
   void AddFrame(const Frame& frame, const Rig& rig, const Eigen::Isometry3d& T_w_c);
+  // AddFrame in two steps: the points (const, so callers may compute them on other threads)
+  // and their accumulation. Adding frames' points in the same order gives the same map.
+  std::vector<Point> FramePoints(const Frame& frame, const Rig& rig,
+                                 const Eigen::Isometry3d& T_w_c) const;
+  void AddPoints(const std::vector<Point>& points);
 
   size_t size() const { return voxels_.size(); }
 
@@ -39,9 +52,11 @@ class DenseMap {
   void WritePly(const std::string& path) const;
 
  private:
+  // A map holds millions of voxels: colours sum exactly in integers (2^32 / 255 points
+  // per voxel before one overflows, far beyond what a voxel receives), in 40 bytes.
   struct Voxel {
     Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-    Eigen::Vector3d colour_sum = Eigen::Vector3d::Zero();  // RGB
+    uint32_t colour_sum[3] = {0, 0, 0};  // RGB
     int count = 0;
   };
   DenseMapOptions options_;

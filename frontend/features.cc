@@ -60,7 +60,7 @@ FrameFeatures ExtractFeatures(const cv::Mat& colour_bgr, const FeatureOptions& o
   }
 
   FrameFeatures features;
-  features.descriptors.create(static_cast<int>(order.size()), 128, CV_32F);
+  features.descriptors.create(static_cast<int>(order.size()), 128, CV_8U);
   const double to_full = 1.0 / options.image_scale;
   for (size_t row = 0; row < order.size(); ++row) {
     const cv::KeyPoint& kp = keypoints[order[row]];
@@ -71,7 +71,8 @@ FrameFeatures ExtractFeatures(const cv::Mat& colour_bgr, const FeatureOptions& o
     const int x = std::clamp(static_cast<int>(std::lround(pixel.x())), 0, colour_bgr.cols - 1);
     const int y = std::clamp(static_cast<int>(std::lround(pixel.y())), 0, colour_bgr.rows - 1);
     features.colours.push_back(colour_bgr.at<cv::Vec3b>(y, x));
-    descriptors.row(order[row]).copyTo(features.descriptors.row(static_cast<int>(row)));
+    cv::Mat bytes = features.descriptors.row(static_cast<int>(row));
+    descriptors.row(order[row]).convertTo(bytes, CV_8U);
   }
   return features;
 }

@@ -34,7 +34,9 @@ struct FrameFeatures {
   std::vector<Eigen::Vector2d> pixels;  // distorted pixel coordinates in the full image
   std::vector<float> scales;            // keypoint size (diameter) in full-image pixels
   std::vector<cv::Vec3b> colours;       // BGR at the keypoint
-  cv::Mat descriptors;                  // CV_32F, N x 128
+  // CV_8U, N x 128: OpenCV's SIFT rounds and saturates its float descriptors to integers in
+  // [0, 255], so bytes hold them exactly at a quarter of the floats' memory.
+  cv::Mat descriptors;
 
   int size() const { return static_cast<int>(pixels.size()); }
 };

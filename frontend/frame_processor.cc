@@ -44,7 +44,13 @@ ProcessedFrame FrameProcessor::Process(const Frame& frame) const {
     if (lifted[i].valid) keep.push_back(i);
   }
   FrameFeatures& kept = processed.features;
-  kept.descriptors.create(static_cast<int>(keep.size()), all.descriptors.cols, CV_32F);
+  // Base frames keep these to the end of the selection: sized exactly, not grown.
+  kept.pixels.reserve(keep.size());
+  kept.scales.reserve(keep.size());
+  kept.colours.reserve(keep.size());
+  processed.points.reserve(keep.size());
+  kept.descriptors.create(static_cast<int>(keep.size()), all.descriptors.cols,
+                          all.descriptors.type());
   for (size_t row = 0; row < keep.size(); ++row) {
     const int i = keep[row];
     kept.pixels.push_back(all.pixels[i]);

@@ -20,6 +20,16 @@ Eigen::Map<const RowMatrixXf> AsEigen(const cv::Mat& m) {
   return Eigen::Map<const RowMatrixXf>(m.ptr<float>(), m.rows, m.cols);
 }
 
+// Descriptor rows as the distance computations take them: continuous CV_32F, bytes
+// converted (exactly: every byte is a float).
+cv::Mat AsFloatRows(const cv::Mat& m) {
+  CHECK(m.type() == CV_32F || m.type() == CV_8U) << "descriptor type " << m.type();
+  if (m.type() == CV_32F) return m.isContinuous() ? m : m.clone();
+  cv::Mat rows;
+  m.convertTo(rows, CV_32F);
+  return rows;
+}
+
 bool Fail(std::string* why, const std::string& message) {
   if (why != nullptr) *why = message;
   return false;
@@ -59,8 +69,9 @@ std::vector<DescriptorMatch> MatchDescriptors(const cv::Mat& query, const cv::Ma
   std::vector<DescriptorMatch> matches;
   if (query.rows == 0 || train.rows < 2) return matches;
   CHECK_EQ(query.cols, train.cols);
-  const auto q = AsEigen(query);
-  const auto t = AsEigen(train);
+  const cv::Mat query_rows = AsFloatRows(query), train_rows = AsFloatRows(train);
+  const auto q = AsEigen(query_rows);
+  const auto t = AsEigen(train_rows);
   // |q - t|^2 = |q|^2 + |t|^2 - 2 q.t, all pairs at once.
   const Eigen::VectorXf q_norm = q.rowwise().squaredNorm();
   const Eigen::RowVectorXf t_norm = t.rowwise().squaredNorm().transpose();
@@ -116,20 +127,27 @@ BaseFrameDatabase::BaseFrameDatabase(const DatabaseOptions& options)
 
 BaseFrameDatabase::~BaseFrameDatabase() = default;
 
+void BaseFrameDatabase::Clear() {
+  index_ = std::make_unique<Index>();
+  frame_ids_ = {};
+  row_frame_ = {};
+}
+
 bool BaseFrameDatabase::Contains(int frame_id) const {
   return std::find(frame_ids_.begin(), frame_ids_.end(), frame_id) != frame_ids_.end();
 }
 
 void BaseFrameDatabase::Add(int frame_id, const cv::Mat& descriptors) {
   CHECK(!Contains(frame_id)) << "frame " << frame_id << " added twice";
-  CHECK_EQ(descriptors.type(), CV_32F);
+  CHECK(descriptors.type() == CV_32F || descriptors.type() == CV_8U);
+  CHECK(index_->rows.empty() || descriptors.type() == index_->rows.type());
   frame_ids_.push_back(frame_id);
   if (descriptors.rows == 0) return;
   row_frame_.insert(row_frame_.end(), descriptors.rows, num_frames() - 1);
   // Rows are appended into storage that grows geometrically: each row is copied O(1) times.
   const int n = index_->rows.rows, m = descriptors.rows;
   if (index_->storage.rows < n + m) {
-    cv::Mat grown(std::max(2 * index_->storage.rows, n + m), descriptors.cols, CV_32F);
+    cv::Mat grown(std::max(2 * index_->storage.rows, n + m), descriptors.cols, descriptors.type());
     if (n > 0) index_->rows.copyTo(grown.rowRange(0, n));
     index_->storage = grown;
   }
@@ -138,8 +156,10 @@ void BaseFrameDatabase::Add(int frame_id, const cv::Mat& descriptors) {
   const int tail = index_->rows.rows - index_->indexed;
   if (tail <= std::max(kMinTailRows, index_->indexed / kTailFraction)) return;
   cvflann::seed_random(options_.seed);
-  index_->flann.reset(new cv::flann::Index(
-      index_->rows, cv::flann::KDTreeIndexParams(options_.trees), cvflann::FLANN_DIST_L2));
+  // The index keeps a float copy of the rows it is built from (OpenCV clones them).
+  index_->flann.reset(new cv::flann::Index(AsFloatRows(index_->rows),
+                                           cv::flann::KDTreeIndexParams(options_.trees),
+                                           cvflann::FLANN_DIST_L2));
   index_->indexed = index_->rows.rows;
 }
 
@@ -148,9 +168,10 @@ std::vector<std::vector<std::pair<float, int>>> BaseFrameDatabase::Nearest(const
   // Per query row, (squared distance, database row) of its k nearest: the index's, then
   // merged with the exact tail's.
   std::vector<std::vector<std::pair<float, int>>> nearest(query.rows);
+  const cv::Mat q = AsFloatRows(query);
   if (index_->flann) {
     cv::Mat indices, dists;
-    index_->flann->knnSearch(query, indices, dists, std::min(k, index_->indexed),
+    index_->flann->knnSearch(q, indices, dists, std::min(k, index_->indexed),
                              cv::flann::SearchParams(options_.checks));
     for (int i = 0; i < query.rows; ++i) {
       for (int n = 0; n < indices.cols; ++n) {
@@ -166,14 +187,14 @@ std::vector<std::vector<std::pair<float, int>>> BaseFrameDatabase::Nearest(const
   for (auto& candidates : nearest) std::sort(candidates.begin(), candidates.end());
   const int tail = index_->rows.rows - index_->indexed;
   if (tail > 0) {
-    const cv::Mat q = query.isContinuous() ? query : query.clone();
     const auto qe = AsEigen(q);
     const Eigen::VectorXf q_norm = qe.rowwise().squaredNorm();
     constexpr int kBlock = 512;
     RowMatrixXf d2;
     for (int begin = index_->indexed; begin < index_->rows.rows; begin += kBlock) {
       const int end = std::min(begin + kBlock, index_->rows.rows);
-      const auto te = AsEigen(index_->rows.rowRange(begin, end));
+      const cv::Mat block = AsFloatRows(index_->rows.rowRange(begin, end));
+      const auto te = AsEigen(block);
       d2.noalias() = -2.0f * (qe * te.transpose());
       d2.colwise() += q_norm;
       d2.rowwise() += te.rowwise().squaredNorm().transpose();

@@ -34,7 +34,7 @@ struct DescriptorMatch {
   float distance = 0.0f;
 };
 
-// Matches rows of `query` to rows of `train` (CV_32F, same width). Deterministic.
+// Matches rows of `query` to rows of `train` (CV_32F or CV_8U, same width). Deterministic.
 std::vector<DescriptorMatch> MatchDescriptors(const cv::Mat& query, const cv::Mat& train,
                                               const MatchOptions& options);
 
@@ -60,9 +60,12 @@ class BaseFrameDatabase {
   BaseFrameDatabase(const BaseFrameDatabase&) = delete;
   BaseFrameDatabase& operator=(const BaseFrameDatabase&) = delete;
 
-  // Adds a frame's descriptors (copied). Frame ids must be unique.
+  // Adds a frame's descriptors (copied; CV_32F or CV_8U, the type of the first frame added
+  // for every frame). Frame ids must be unique.
   void Add(int frame_id, const cv::Mat& descriptors);
   int num_frames() const { return static_cast<int>(frame_ids_.size()); }
+  // Frees every frame's descriptors and the index: the database is empty again.
+  void Clear();
   bool Contains(int frame_id) const;
 
   // Base frames ranked by the number of query descriptors that vote for them (most

@@ -78,6 +78,7 @@ RgbdFrameSource::RgbdFrameSource(const Dataset& dataset, const RgbdSourceOptions
 RgbdFrameSource::~RgbdFrameSource() = default;
 
 const ProcessedFrame& RgbdFrameSource::Processed(int frame) {
+  CHECK(!finished_) << "frame " << frame << " asked for after Finish";
   auto it = processed_.find(frame);
   if (it != processed_.end()) return it->second;
   const auto start = std::chrono::steady_clock::now();
@@ -269,6 +270,15 @@ void RgbdFrameSource::Commit(const CandidateFrame& candidate) {
   for (auto it = registrations_.begin(); it != registrations_.end();) {
     it = it->first.second <= candidate.frame ? registrations_.erase(it) : std::next(it);
   }
+}
+
+void RgbdFrameSource::Finish() {
+  finished_ = true;
+  processed_.clear();
+  pending_.clear();
+  registrations_.clear();
+  feature_ids_.clear();
+  database_.Clear();
 }
 
 void RgbdFrameSource::Release(int frame) {

@@ -73,6 +73,9 @@ class RgbdFrameSource : public FrameSource {
   // Frees the processed frame (features, lifted points) and its cached registrations; a
   // base frame stays.
   void Release(int frame) override;
+  // Frees every processed frame, registration and the descriptor database; preparing or
+  // committing a frame afterwards is a programming error (checked).
+  void Finish() override;
 
   const SourceTimings& timings() const { return timings_; }
   // The processed frame (features and lifted points), processing it now if needed. A frame
@@ -107,6 +110,7 @@ class RgbdFrameSource : public FrameSource {
   std::map<int, std::vector<int64_t>> pending_;      // per prepared frame: tentative ids
   int64_t next_feature_id_ = 0;
   int last_base_ = -1;
+  bool finished_ = false;
   SourceTimings timings_;
 };
 

@@ -3,6 +3,7 @@
 #include <random>
 
 #include <gtest/gtest.h>
+#include <opencv2/features2d.hpp>
 #include <opencv2/imgproc.hpp>
 
 namespace ieslam {
@@ -31,7 +32,7 @@ TEST(FeaturesTest, FindsKeypointsInTextureAndNoneInAFlatImage) {
   EXPECT_LE(features.size(), FeatureOptions().max_features);
   EXPECT_EQ(features.descriptors.rows, features.size());
   EXPECT_EQ(features.descriptors.cols, 128);
-  EXPECT_EQ(features.descriptors.type(), CV_32F);
+  EXPECT_EQ(features.descriptors.type(), CV_8U);
   ASSERT_EQ(features.scales.size(), features.pixels.size());
   ASSERT_EQ(features.colours.size(), features.pixels.size());
   for (const Eigen::Vector2d& p : features.pixels) {
@@ -42,6 +43,29 @@ TEST(FeaturesTest, FindsKeypointsInTextureAndNoneInAFlatImage) {
   }
   const cv::Mat flat(480, 640, CV_8UC3, cv::Scalar(90, 90, 90));
   EXPECT_EQ(ExtractFeatures(flat, FeatureOptions()).size(), 0);
+}
+
+// The bytes lose nothing: OpenCV's own float descriptors of the image are integers in
+// [0, 255]. If an OpenCV release changed that, matching on the bytes would differ from
+// matching on its floats, and this fails.
+TEST(FeaturesTest, SiftFloatDescriptorsAreBytes) {
+  cv::Mat grey;
+  cv::cvtColor(TexturedImage(4), grey, cv::COLOR_BGR2GRAY);
+  std::vector<cv::KeyPoint> keypoints;
+  cv::Mat floats;
+  const FeatureOptions options;
+  cv::SIFT::create(0, options.octave_layers, options.contrast_threshold, options.edge_threshold,
+                   options.sigma)
+      ->detectAndCompute(grey, cv::noArray(), keypoints, floats);
+  ASSERT_EQ(floats.type(), CV_32F);
+  ASSERT_GT(floats.rows, 200);
+  cv::Mat bytes, back;
+  floats.convertTo(bytes, CV_8U);
+  bytes.convertTo(back, CV_32F);
+  EXPECT_EQ(cv::norm(floats, back, cv::NORM_INF), 0.0);
+  double max_value = 0.0;
+  cv::minMaxLoc(floats, nullptr, &max_value);
+  EXPECT_GT(max_value, 1.0);  // not normalised to unit length
 }
 
 TEST(FeaturesTest, TheSameImageGivesTheSameFeatures) {

@@ -95,6 +95,57 @@ TEST(MatcherTest, DatabaseRanksTheFrameThatSharesMostDescriptors) {
   EXPECT_EQ(again.RankFrames(query, 3), ranked);
 }
 
+cv::Mat Rounded(const cv::Mat& descriptors) {
+  cv::Mat bytes;
+  descriptors.convertTo(bytes, CV_8U);
+  return bytes;
+}
+
+cv::Mat AsFloats(const cv::Mat& bytes) {
+  cv::Mat floats;
+  bytes.convertTo(floats, CV_32F);
+  return floats;
+}
+
+// Bytes are matched and ranked exactly as the same values in floats, with the database past
+// its first index build (more than 2048 rows) and with rows in its exact tail.
+TEST(MatcherTest, BytesMatchAndRankAsTheirFloats) {
+  std::vector<cv::Mat> bytes;
+  BaseFrameDatabase from_bytes{DatabaseOptions()}, from_floats{DatabaseOptions()};
+  for (int f = 0; f < 15; ++f) {
+    bytes.push_back(Rounded(RandomDescriptors(200, 40 + f)));
+    from_bytes.Add(f, bytes.back());
+    from_floats.Add(f, AsFloats(bytes.back()));
+  }
+  std::vector<int> rows;
+  for (int i = 0; i < 150; ++i) rows.push_back(i);
+  cv::Mat query;
+  cv::vconcat(Rounded(Perturbed(AsFloats(bytes[3]), rows, 50)),
+              Rounded(Perturbed(AsFloats(bytes[14]), rows, 51)), query);
+  const auto ranked = from_bytes.RankFrames(query, 4);
+  ASSERT_GE(ranked.size(), 2u);
+  EXPECT_EQ(ranked, from_floats.RankFrames(AsFloats(query), 4));
+  EXPECT_TRUE(ranked[0].first == 3 || ranked[0].first == 14);
+
+  const auto a = MatchDescriptors(query, bytes[3], MatchOptions());
+  const auto b = MatchDescriptors(AsFloats(query), AsFloats(bytes[3]), MatchOptions());
+  ASSERT_EQ(a.size(), b.size());
+  EXPECT_GE(a.size(), 100u);
+  for (size_t i = 0; i < a.size(); ++i) {
+    EXPECT_EQ(a[i].query, b[i].query);
+    EXPECT_EQ(a[i].train, b[i].train);
+    EXPECT_EQ(a[i].distance, b[i].distance);
+  }
+
+  from_bytes.Clear();
+  EXPECT_EQ(from_bytes.num_frames(), 0);
+  EXPECT_FALSE(from_bytes.Contains(3));
+  EXPECT_TRUE(from_bytes.RankFrames(query, 4).empty());
+  from_bytes.Add(3, bytes[3]);
+  ASSERT_FALSE(from_bytes.RankFrames(query, 4).empty());
+  EXPECT_EQ(from_bytes.RankFrames(query, 4)[0].first, 3);
+}
+
 TEST(MatcherTest, DatabaseRejectsBadOptionsWithConfigError) {
   DatabaseOptions bad;
   bad.neighbours = 1;

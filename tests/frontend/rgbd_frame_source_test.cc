@@ -74,5 +74,18 @@ TEST(RgbdFrameSourceTest, AReleasedFrameIsFreedAndPreparedAgainAlike) {
   }
 }
 
+TEST(RgbdFrameSourceTest, FinishFreesEveryFrame) {
+  const std::unique_ptr<Dataset> dataset = OpenDataset(kSevenScenes, DatasetOptions());
+  RgbdFrameSource source(*dataset, RgbdSourceOptions());
+  source.Commit(source.PrepareFirst(0));
+  const CandidateFrame c = source.Prepare(4);
+  ASSERT_TRUE(c.registered) << c.reason;
+  source.Commit(c);
+  source.Prepare(6);
+  EXPECT_EQ(source.frames_kept(), 3);
+  source.Finish();
+  EXPECT_EQ(source.frames_kept(), 0);
+}
+
 }  // namespace
 }  // namespace ieslam
