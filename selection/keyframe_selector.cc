@@ -40,6 +40,46 @@ SelectionDecision Added(int frame, const std::string& reason) {
   return decision;
 }
 
+// Wall time per frame over each quarter of a run's frames, from its progress reports
+// (frames done so far, never decreasing).
+class QuarterClock {
+ public:
+  explicit QuarterClock(int frames) : frames_(frames), start_(Clock::now()) {}
+
+  void Reach(int done) {
+    while (seconds_.size() < 4 &&
+           int64_t{done} * 4 >= static_cast<int64_t>(seconds_.size() + 1) * frames_) {
+      Close(done);
+    }
+  }
+
+  // The quarters reached, and the one under way at `done` frames when it is not reached.
+  std::vector<double> Finish(int done) {
+    Reach(done);
+    if (seconds_.size() < 4 && done > done_) Close(done);
+    return seconds_;
+  }
+
+ private:
+  // Ends the current quarter at `done` frames; a report that crosses several quarters at
+  // once gives each the same cost per frame.
+  void Close(int done) {
+    const auto now = Clock::now();
+    if (done > done_) {
+      seconds_.push_back(std::chrono::duration<double>(now - start_).count() / (done - done_));
+    } else {
+      seconds_.push_back(seconds_.empty() ? 0.0 : seconds_.back());
+    }
+    start_ = now;
+    done_ = std::max(done_, done);
+  }
+
+  const int frames_;
+  Clock::time_point start_;
+  int done_ = 0;
+  std::vector<double> seconds_;
+};
+
 // The selector's working state for one run.
 class Run {
  public:
@@ -407,6 +447,20 @@ KeyframeSelector::KeyframeSelector(const SelectorOptions& options) : options_(op
 }
 
 SelectionResult KeyframeSelector::Run(
+    FrameSource* source, InformationFilter* filter, const std::function<void(int, int)>& progress,
+    const std::function<bool()>& stop,
+    const std::function<void(const SelectionDecision&)>& on_decision) const {
+  QuarterClock quarters(source->size());
+  const std::function<void(int, int)> timed = [&](int done, int selected) {
+    quarters.Reach(done);
+    if (progress) progress(done, selected);
+  };
+  SelectionResult result = RunFrames(source, filter, timed, stop, on_decision);
+  result.seconds_per_frame_by_quarter = quarters.Finish(result.frames_processed);
+  return result;
+}
+
+SelectionResult KeyframeSelector::RunFrames(
     FrameSource* source, InformationFilter* filter, const std::function<void(int, int)>& progress,
     const std::function<bool()>& stop,
     const std::function<void(const SelectionDecision&)>& on_decision) const {

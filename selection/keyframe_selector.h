@@ -92,6 +92,9 @@ struct SelectionResult {
   int frames_processed = 0;
   double seconds_selection = 0.0;  // preparing candidates and scoring them
   double seconds_filter = 0.0;     // adding to the filter (update + recovery)
+  // Wall seconds per frame over each quarter of the frames, in processing order (fewer
+  // entries when interrupted): whether a frame costs more as the map grows.
+  std::vector<double> seconds_per_frame_by_quarter;
   // What the filter's observation gate kept out of the frames added (or refused).
   GateStatistics gate;
 };
@@ -118,6 +121,11 @@ class KeyframeSelector {
                                                                   const InformationFilter& filter);
 
  private:
+  SelectionResult RunFrames(FrameSource* source, InformationFilter* filter,
+                            const std::function<void(int, int)>& progress,
+                            const std::function<bool()>& stop,
+                            const std::function<void(const SelectionDecision&)>& on_decision) const;
+
   SelectorOptions options_;
 };
 

@@ -1,7 +1,9 @@
 #include "selection/pipeline/dataset_run.h"
 
 #include <algorithm>
+#include <deque>
 #include <functional>
+#include <future>
 
 #include <opencv2/core.hpp>
 
@@ -43,40 +45,83 @@ std::optional<PoseConsistency> Consistency(const Trajectory& ground_truth,
   return c;
 }
 
-// Loads each of `frames` once, in the given order, into the dense map (at its pose in
-// `T_w_c`) and, when `clouds` is set, as a range cloud. A frame that cannot be loaded again,
-// or whose range image gives no cloud, is left out with a warning. Stops early, setting
-// *stopped, once `stop` (when set) says so.
+// What loading one selected frame gives: its map points and range cloud, or why not.
+struct LoadedFrame {
+  std::string load_error;  // the frame could not be loaded again
+  std::vector<DenseMap::Point> points;
+  std::optional<RangeCloud> cloud;
+  std::string cloud_error;  // the range image gives no cloud
+};
+
+LoadedFrame LoadFrame(const Dataset& dataset, int frame, const Eigen::Isometry3d& T_w_c,
+                      const RangeCloudOptions& cloud_options, const DenseMap* map, bool cloud) {
+  LoadedFrame out;
+  const std::string name = "frame " + std::to_string(frame);
+  Frame loaded;
+  try {
+    loaded = dataset.Load(frame);
+  } catch (const DataError& e) {
+    out.load_error = e.what();
+    return out;
+  }
+  if (map != nullptr) out.points = map->FramePoints(loaded, dataset.rig(), T_w_c);
+  if (!cloud) return out;
+  try {
+    out.cloud = MakeRangeCloud(loaded.depth, dataset.rig().range, dataset.rig().T_colour_range,
+                               cloud_options, name);
+  } catch (const DataError& e) {
+    out.cloud_error = e.what();
+  }
+  return out;
+}
+
+// Loads each of `frames` once into the dense map (at its pose in `T_w_c`) and, when `clouds`
+// is set, as a range cloud. A frame that cannot be loaded again, or whose range image gives
+// no cloud, is left out with a warning. Stops early, setting *stopped, once `stop` (when
+// set) says so. With workers > 0 that many threads load frames (decoding, points, clouds)
+// ahead of the caller, who adds them to the map in the given order: the same map as one
+// thread gives.
 void LoadSelectedFrames(const Dataset& dataset, const std::vector<int>& frames,
                         const std::vector<std::optional<Eigen::Isometry3d>>& T_w_c,
-                        const RangeCloudOptions& cloud_options, DenseMap* map, RangeClouds* clouds,
-                        const std::function<bool()>& stop, bool* stopped,
+                        const RangeCloudOptions& cloud_options, int workers, DenseMap* map,
+                        RangeClouds* clouds, const std::function<bool()>& stop, bool* stopped,
                         std::vector<std::string>* warnings) {
   const std::string uses = map != nullptr && clouds != nullptr ? "the map and the depth alignment"
                            : map != nullptr                    ? "the map"
                                                                : "the depth alignment";
+  std::vector<int> placed;
   for (const int frame : frames) {
+    if (T_w_c[frame]) placed.push_back(frame);
+  }
+  const auto load = [&](int frame) {
+    return LoadFrame(dataset, frame, *T_w_c[frame], cloud_options, map, clouds != nullptr);
+  };
+  // Frames started ahead and not yet added, one per worker (each holds its images and points).
+  std::deque<std::future<LoadedFrame>> ahead;
+  size_t next = 0;
+  for (const int frame : placed) {
+    while (workers > 0 && next < placed.size() && ahead.size() < static_cast<size_t>(workers)) {
+      ahead.push_back(std::async(std::launch::async, load, placed[next++]));
+    }
     if (stop && stop()) {
       *stopped = true;
+      for (auto& f : ahead) f.wait();
       return;
     }
-    if (!T_w_c[frame]) continue;
+    LoadedFrame loaded = workers > 0 ? ahead.front().get() : load(frame);
+    if (workers > 0) ahead.pop_front();
     const std::string name = "frame " + std::to_string(frame);
-    Frame loaded;
-    try {
-      loaded = dataset.Load(frame);
-    } catch (const DataError& e) {
-      warnings->push_back(name + " left out of " + uses + ": " + e.what());
+    if (!loaded.load_error.empty()) {
+      warnings->push_back(name + " left out of " + uses + ": " + loaded.load_error);
       if (clouds != nullptr) ++clouds->frames_left_out;
       continue;
     }
-    if (map != nullptr) map->AddFrame(loaded, dataset.rig(), *T_w_c[frame]);
+    if (map != nullptr) map->AddPoints(loaded.points);
     if (clouds == nullptr) continue;
-    try {
-      clouds->clouds[frame] = MakeRangeCloud(loaded.depth, dataset.rig().range,
-                                             dataset.rig().T_colour_range, cloud_options, name);
-    } catch (const DataError& e) {
-      warnings->push_back(name + " left out of the depth alignment: " + e.what());
+    if (loaded.cloud) {
+      clouds->clouds[frame] = std::move(*loaded.cloud);
+    } else {
+      warnings->push_back(name + " left out of the depth alignment: " + loaded.cloud_error);
       ++clouds->frames_left_out;
     }
   }
@@ -127,27 +172,35 @@ RunResult RunOnDataset(const Dataset& dataset, const RunOptions& options,
   const std::function<bool()> loader_stop = [&] {
     return !selection_stopped && hooks.stop && hooks.stop();
   };
+  // The selected frames are loaded again on as many threads as prefetch the frames.
+  const int map_workers = used.source.prefetch.workers;
   // With depth alignment, each selected frame is loaded once for both the map and its cloud.
   bool map_built = false;
   const RangeCloudLoader clouds = [&](const std::vector<int>& frames,
                                       const std::vector<std::optional<Eigen::Isometry3d>>& T_w_c) {
     RangeClouds loaded;
-    LoadSelectedFrames(dataset, frames, T_w_c, used.range_cloud, run.map ? &*run.map : nullptr,
-                       &loaded, loader_stop, &run.stopped_after_selection, &run.warnings);
+    LoadSelectedFrames(dataset, frames, T_w_c, used.range_cloud, map_workers,
+                       run.map ? &*run.map : nullptr, &loaded, loader_stop,
+                       &run.stopped_after_selection, &run.warnings);
     map_built = true;
     return loaded;
   };
+  run.setup_seconds = SecondsSince(run.started);
   run.pipeline = RunPipeline(&source, dataset.rig().colour, used.pipeline, pipeline_hooks, clouds);
   run.frontend = source.timings();
+  const auto evaluation_start = std::chrono::steady_clock::now();
   CollectTrajectories(dataset, &run);
+  run.evaluation_seconds = SecondsSince(evaluation_start);
   if (run.map && !map_built) {
+    const auto map_start = std::chrono::steady_clock::now();
     const bool selection_interrupted = run.pipeline.selection.interrupted;
     const std::function<bool()> map_stop = [&] {
       return !selection_interrupted && hooks.stop && hooks.stop();
     };
     LoadSelectedFrames(dataset, run.pipeline.selection.selected, run.pipeline.T_w_c,
-                       used.range_cloud, &*run.map, nullptr, map_stop, &run.stopped_after_selection,
-                       &run.warnings);
+                       used.range_cloud, map_workers, &*run.map, nullptr, map_stop,
+                       &run.stopped_after_selection, &run.warnings);
+    run.map_seconds = SecondsSince(map_start);
   }
   // A stop in the refinement or the map, where the selection no longer polls.
   if (!run.pipeline.selection.interrupted && hooks.stop && hooks.stop()) {
@@ -158,6 +211,7 @@ RunResult RunOnDataset(const Dataset& dataset, const RunOptions& options,
                            "; refined.tum is not written");
   }
   if (dataset.has_ground_truth()) {
+    const auto ground_truth_start = std::chrono::steady_clock::now();
     const Trajectory gt = AsReadBackFromTum(run.ground_truth, "groundtruth.tum");
     run.ate_keyframes_m = Ate(gt, run.keyframes, "keyframes.tum", &run.warnings);
     run.ate_trajectory_m = Ate(gt, run.trajectory, "trajectory.tum", &run.warnings);
@@ -172,6 +226,7 @@ RunResult RunOnDataset(const Dataset& dataset, const RunOptions& options,
       run.consistency_refined = Consistency(run.ground_truth, run.timestamps,
                                             SmootherEstimate(run.pipeline.refinement->refined()));
     }
+    run.evaluation_seconds += SecondsSince(ground_truth_start);
   }
   return run;
 }

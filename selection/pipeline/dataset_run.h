@@ -48,6 +48,12 @@ struct RunResult {
   std::optional<PoseConsistency> consistency_filter;
   std::optional<PoseConsistency> consistency_refined;
   std::chrono::steady_clock::time_point started;
+  // Wall time on the caller's thread outside the pipeline's own stages: opening the frame
+  // source, loading the selected frames' depth for the map after the pipeline (the pipeline's
+  // clouds_seconds holds the load it asked for), and the trajectories, ATE and consistency.
+  double setup_seconds = 0.0;
+  double map_seconds = 0.0;
+  double evaluation_seconds = 0.0;
   std::vector<std::string> warnings;  // things the user should hear about, one line each
 
   // hooks.stop said so after the selection (in the refinement or the map); the map then

@@ -2,6 +2,10 @@
 
 #include <chrono>
 
+#ifdef __GLIBC__
+#include <malloc.h>
+#endif
+
 #include "core/error.h"
 #include "core/stopwatch.h"
 
@@ -34,9 +38,18 @@ PipelineResult RunPipeline(FrameSource* source, const PinholeCamera& camera,
   if (!options.Check(&why)) throw ConfigError(why);
   PipelineResult result;
   result.filter = std::make_unique<InformationFilter>(options.filter, camera);
+  const auto selection_start = std::chrono::steady_clock::now();
   result.selection =
       KeyframeSelector(options.selector)
           .Run(source, result.filter.get(), hooks.progress, hooks.stop, hooks.on_decision);
+  result.selection_wall_seconds = SecondsSince(selection_start);
+  source->Finish();
+#ifdef __GLIBC__
+  // What the selection freed (processed frames, the descriptor database, SIFT's scratch in
+  // the workers' arenas) goes back to the system before the map and the refinement allocate
+  // theirs: the allocator otherwise keeps it (apps/main.cc raises the trim threshold).
+  malloc_trim(0);
+#endif
   result.T_w_c = KeyframeSelector::FramePoses(result.selection, *result.filter);
   const bool dead_reckoning = !result.selection.chained_T_w_c.empty();
   if (dead_reckoning || result.filter->num_poses() == 0) return result;
@@ -49,7 +62,11 @@ PipelineResult RunPipeline(FrameSource* source, const PinholeCamera& camera,
   if (!options.refine) return result;
   RangeClouds loaded;
   const bool align = clouds != nullptr && options.depth_alignment.rounds > 0;
-  if (align) loaded = clouds(result.selection.selected, result.T_w_c);
+  if (align) {
+    const auto clouds_start = std::chrono::steady_clock::now();
+    loaded = clouds(result.selection.selected, result.T_w_c);
+    result.clouds_seconds = SecondsSince(clouds_start);
+  }
   BundleAdjustmentOptions ba = options.ba;
   // A stop the selection obeyed ends the selection only; the refinement obeys a later one.
   if (!ba.stop && !result.selection.interrupted) ba.stop = hooks.stop;

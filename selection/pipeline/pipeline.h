@@ -73,6 +73,11 @@ struct PipelineResult {
   BundleAdjustmentProblem problem;
   std::optional<Refinement> refinement;  // with refine
   double covariance_seconds = 0.0;       // recovering the pose covariances
+  // Wall time on the caller's thread: the selector's run over the frames (every frame's
+  // registration, scoring and filter update), and loading the range clouds for the
+  // refinement (with the dense map when the caller's loader builds it).
+  double selection_wall_seconds = 0.0;
+  double clouds_seconds = 0.0;
 };
 
 // Runs the selector over every frame of `source` (observations in `camera`'s model) into a

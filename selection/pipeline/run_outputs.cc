@@ -83,6 +83,7 @@ const std::vector<std::string>& RunOutputNames() {
 
 void WriteRunOutputs(const std::string& out, const Dataset& dataset, const RunOptions& options,
                      const RunResult& run, const std::function<bool()>& stop) {
+  const auto outputs_start = std::chrono::steady_clock::now();
   const PipelineResult& p = run.pipeline;
   RemoveStaleTempFiles(out, RunOutputNames());
   // Files of the set this run does not write are an earlier run's only where one was: a
@@ -123,7 +124,8 @@ void WriteRunOutputs(const std::string& out, const Dataset& dataset, const RunOp
                        "ieslam bundle-adjusted keyframes");
   }
   if (run.map) run.map->WritePly(JoinPath(out, "map.ply"));
-  Json report = RunReport(dataset, options, run, SecondsSince(run.started));
+  Json report =
+      RunReport(dataset, options, run, SecondsSince(run.started), SecondsSince(outputs_start));
   if (stop && stop()) report.Set("interrupted", true);
   WriteTextAtomically(JoinPath(out, "report.json"), report.Dump() + "\n");
 }

@@ -3,6 +3,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "core/version.h"
 
@@ -37,16 +40,45 @@ Json DecisionsToJson(const Dataset& dataset, const std::vector<SelectionDecision
   return json;
 }
 
-Json SecondsToJson(const RunResult& run, bool refine, double total_seconds) {
+}  // namespace
+
+std::vector<std::pair<std::string, double>> RunWallStages(const RunResult& run, bool refine,
+                                                          double total_seconds,
+                                                          double outputs_seconds) {
   const SourceTimings& t = run.frontend;
-  const SelectionResult& selection = run.pipeline.selection;
-  Json seconds = Json::Object()
-                     .Set("total", total_seconds)
-                     .Set("frontend", t.total())
-                     .Set("selection", std::max(0.0, selection.seconds_selection - t.caller()))
-                     .Set("filter", selection.seconds_filter)
-                     .Set("load", t.load_s)
-                     .Set("covariance", run.pipeline.covariance_seconds);
+  const PipelineResult& p = run.pipeline;
+  const double registration = std::min(t.caller(), p.selection.seconds_selection);
+  std::vector<std::pair<std::string, double>> stages = {
+      {"setup", run.setup_seconds},
+      {"registration", registration},
+      {"selection", p.selection.seconds_selection - registration},
+      {"filter", p.selection.seconds_filter},
+      {"covariance", p.covariance_seconds},
+      {"map", p.clouds_seconds + run.map_seconds},
+      {"evaluation", run.evaluation_seconds},
+      {"outputs", outputs_seconds}};
+  if (refine) stages.emplace_back("ba", p.refinement ? p.refinement->seconds : 0.0);
+  double named = 0.0;
+  for (const auto& stage : stages) named += stage.second;
+  stages.emplace_back("other", total_seconds - named);
+  return stages;
+}
+
+namespace {
+
+Json SecondsToJson(const RunResult& run, bool refine, double total_seconds,
+                   double outputs_seconds) {
+  const SourceTimings& t = run.frontend;
+  Json seconds =
+      Json::Object().Set("total", total_seconds).Set("frontend", t.total()).Set("load", t.load_s);
+  for (const auto& [name, value] : RunWallStages(run, refine, total_seconds, outputs_seconds)) {
+    seconds.Set(name, value);
+  }
+  const std::vector<double>& quarters = run.pipeline.selection.seconds_per_frame_by_quarter;
+  seconds.Set("per_frame_by_quarter", Json::ArrayOf(quarters));
+  if (quarters.size() == 4 && quarters.front() > 0.0) {
+    seconds.Set("last_to_first_quarter", quarters.back() / quarters.front());
+  }
   seconds["frontend_stages"]
       .Set("load", t.load_s)
       .Set("extract", t.extract_s)
@@ -54,9 +86,6 @@ Json SecondsToJson(const RunResult& run, bool refine, double total_seconds) {
       .Set("match", t.match_s)
       .Set("ransac", t.ransac_s)
       .Set("fetch_wall", t.fetch_wall_s);
-  if (refine) {
-    seconds.Set("ba", run.pipeline.refinement ? run.pipeline.refinement->seconds : 0.0);
-  }
   return seconds;
 }
 
@@ -145,7 +174,7 @@ Json NoiseScalesToJson(std::vector<double> scales) {
 }  // namespace
 
 Json RunReport(const Dataset& dataset, const RunOptions& options, const RunResult& run,
-               double total_seconds) {
+               double total_seconds, double outputs_seconds) {
   const PipelineResult& p = run.pipeline;
   const bool refine = options.pipeline.refine;
   Json report = Json::Object();
@@ -183,7 +212,7 @@ Json RunReport(const Dataset& dataset, const RunOptions& options, const RunResul
   std::vector<std::string> warnings = dataset.warnings();
   warnings.insert(warnings.end(), run.warnings.begin(), run.warnings.end());
   report.Set("warnings", Json::ArrayOf(warnings));
-  report.Set("seconds", SecondsToJson(run, refine, total_seconds));
+  report.Set("seconds", SecondsToJson(run, refine, total_seconds, outputs_seconds));
   if (dataset.has_ground_truth()) {
     const Json ate = AteToJson(run, refine);
     if (ate.is_object()) report.Set("ate_rmse_m", ate);

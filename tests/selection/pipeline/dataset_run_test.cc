@@ -2,9 +2,12 @@
 // results in memory, then the files.
 #include "selection/pipeline/dataset_run.h"
 
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <sstream>
+#include <string>
 
 #include <unistd.h>
 
@@ -178,25 +181,34 @@ TEST_F(DatasetRunTest, AJumpInTheSequenceIsBridgedAndStaysInTheSameFrame) {
   EXPECT_LT(run.ate_trajectory_m, 0.02);
 }
 
-// Pipelining must not change the answer: with prefetching worker threads the run gives the
-// same trajectories as the sequential --threads 1 mode for the same seed.
+// Pipelining must not change the answer: with prefetching worker threads (and the map's
+// frames loaded on them) the run gives the same trajectories and map as the sequential
+// --threads 1 mode for the same seed.
 TEST_F(DatasetRunTest, ThreadedRunGivesTheSequentialTrajectory) {
   Trajectory trajectory[2], keyframes[2];
+  std::string maps[2];
   const int threads[2] = {1, 3};
   for (int k = 0; k < 2; ++k) {
     RunOptions options = Options();
     options.dataset_options.last = 19;
     options.threads = threads[k];
     options.seed = 7;
-    options.build_map = false;
     const auto dataset = OpenDataset(options.dataset, options.dataset_options);
     const RunResult run = RunOnDataset(*dataset, options);
     trajectory[k] = run.trajectory;
     keyframes[k] = run.keyframes;
     EXPECT_EQ(run.frames_processed(), 20) << "threads " << threads[k];
     EXPECT_LT(run.ate_trajectory_m, 0.02) << "threads " << threads[k];
-    EXPECT_FALSE(run.map.has_value());
+    ASSERT_TRUE(run.map.has_value());
+    EXPECT_GT(run.map->size(), 1000u);
+    const std::string ply =
+        ::testing::TempDir() + "/threaded_run_map_" + std::to_string(threads[k]) + ".ply";
+    run.map->WritePly(ply);
+    std::ifstream in(ply, std::ios::binary);
+    maps[k].assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+    std::remove(ply.c_str());
   }
+  EXPECT_EQ(maps[0], maps[1]);
   EXPECT_GT(keyframes[0].size(), 1u);
   ASSERT_EQ(trajectory[0].size(), 20u);
   ASSERT_EQ(trajectory[1].size(), trajectory[0].size());

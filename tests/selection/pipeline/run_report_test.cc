@@ -3,6 +3,11 @@
 
 #include <gtest/gtest.h>
 
+#include <string>
+#include <vector>
+
+#include "core/stopwatch.h"
+
 namespace ieslam {
 namespace {
 
@@ -20,7 +25,7 @@ TEST(RunReportTest, HoldsWhatTheInterfacePromises) {
   options.dataset_options.first = 1;  // frames named by their index in the dataset
   const auto dataset = OpenDataset(options.dataset, options.dataset_options);
   const RunResult run = RunOnDataset(*dataset, options);
-  const std::string report = RunReport(*dataset, options, run, 12.5).Dump();
+  const std::string report = RunReport(*dataset, options, run, 12.5, 0.5).Dump();
   for (const char* key : {"version",
                           "dataset",
                           "seed",
@@ -72,12 +77,51 @@ TEST(RunReportTest, LeavesOutWhatWasNotDone) {
   options.build_map = false;
   const auto dataset = OpenDataset(options.dataset, options.dataset_options);
   const RunResult run = RunOnDataset(*dataset, options);
-  const std::string report = RunReport(*dataset, options, run, 1.0).Dump();
+  const std::string report = RunReport(*dataset, options, run, 1.0, 0.0).Dump();
   EXPECT_FALSE(Has(report, "refined"));
   EXPECT_FALSE(Has(report, "filter_vs_smoother"));
   EXPECT_TRUE(Has(report, "keyframe_sigmas"));
   EXPECT_TRUE(Has(report, "consistency"));
   EXPECT_FALSE(run.consistency_refined.has_value());
+}
+
+// The stages are wall times of one thread that do not overlap: none is negative and they
+// leave a non-negative remainder; and they cover the run, so the remainder is small.
+TEST(RunReportTest, WallStagesPartitionTheTotal) {
+  RunOptions options;
+  options.dataset = kDesk;
+  options.threads = 1;
+  options.pipeline.refine = true;
+  const auto dataset = OpenDataset(options.dataset, options.dataset_options);
+  const RunResult run = RunOnDataset(*dataset, options);
+  const double total = SecondsSince(run.started);
+  const auto stages = RunWallStages(run, true, total, 0.0);
+  std::vector<std::string> names;
+  double named = 0.0;
+  for (const auto& [name, seconds] : stages) {
+    names.push_back(name);
+    if (name == "other") continue;
+    EXPECT_GE(seconds, 0.0) << name;
+    named += seconds;
+  }
+  EXPECT_EQ(names,
+            (std::vector<std::string>{"setup", "registration", "selection", "filter", "covariance",
+                                      "map", "evaluation", "outputs", "ba", "other"}));
+  EXPECT_LE(named, total);
+  EXPECT_GE(stages.back().second, 0.0);
+  EXPECT_LT(stages.back().second, 0.2 * total) << "total " << total;
+  for (const auto& [name, seconds] : stages) {
+    if (name == "registration" || name == "filter" || name == "map" || name == "ba") {
+      EXPECT_GT(seconds, 0.0) << name;
+    }
+  }
+  // Every quarter of the frames was timed, within the selection.
+  const std::vector<double>& quarters = run.pipeline.selection.seconds_per_frame_by_quarter;
+  ASSERT_EQ(quarters.size(), 4u);
+  for (const double per_frame : quarters) {
+    EXPECT_GT(per_frame, 0.0);
+    EXPECT_LT(per_frame, run.pipeline.selection_wall_seconds);
+  }
 }
 
 }  // namespace
