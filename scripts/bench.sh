@@ -10,7 +10,8 @@
 #             machine at load average ~10 (the two 500-frame runs and the simulation dominate).
 # Environment: REPEAT (repetitions of the micro-benchmarks, register and run: default 3, 1
 #   with --quick), SIM_REPEAT (default 1), BUILD_DIR (default build/),
-#   JOBS (parallel compile jobs if a build is needed, default 1: the machine is shared).
+#   JOBS (parallel compile jobs if a build is needed, default 1: the machine is shared),
+#   BENCH_DATA (where the synthetic datasets are kept, default OUT/data).
 #
 # End to end:
 #   register  `ieslam register --step 5` (and 20) with OpenCV on one thread: the front end's
@@ -20,6 +21,13 @@
 #             for the peak resident memory
 #   simulate  `ieslam simulate --buffers 3` (once; SIM_REPEAT for more): the Table I time
 #             and dimension ratios
+#   scale     (not with --quick) `ieslam run` on tum-fr1-rpy-300 and on `ieslam synth
+#             --frames 600/2000 --seed 5`, default threads and --threads 1: real-time factor
+#             (30 Hz), last-to-first quarter cost per frame, peak RSS and its growth per
+#             non-keyframe between 600 and 2,000 frames; `--refine` on tum-fr1-rpy-300 with the
+#             default selector and with `--selector interval --interval 1`; `simulate
+#             --buffers 3` with `filter: {iterative_recovery: 0}`. Once each. Renders the two
+#             synthetic datasets (about 4 min) unless BENCH_DATA already holds them.
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 quick=0
@@ -99,6 +107,40 @@ for r in $(seq "${SIM_REPEAT:-1}"); do
   "$ieslam" simulate --output "$out/simulate" --runs 1 --buffers 3 --quiet > /dev/null
   cp "$out/simulate/report.json" "$out/simulate_report_$r.json"
 done
+
+# Scale: real-time factors on the real data and long synthetic sequences, both thread
+# modes, the cost per frame over the run, peak memory and its growth per frame, the
+# refinement's time on a small and a large problem, and the paper's exact EIF (no iterative
+# recovery) against the selector. Synthetic datasets are rendered once into BENCH_DATA
+# (default OUT/data) and reused.
+if [ "$quick" = 0 ]; then
+  echo "== scale" >&2
+  synth_dir=${BENCH_DATA:-$out/data}
+  for n in 600 2000; do
+    if [ ! -f "$synth_dir/synth_$n/groundtruth.txt" ]; then
+      "$ieslam" synth --output "$synth_dir/synth_$n" --frames "$n" --seed 5 > /dev/null
+    fi
+  done
+  scale_run() {  # NAME, then the run's flags
+    local name=$1
+    shift
+    /usr/bin/time -v "$ieslam" run --output "$out/scale_$name" --quiet "$@" \
+      2> "$out/scale_${name}_time.txt" > /dev/null
+    cp "$out/scale_$name/report.json" "$out/scale_${name}_report.json"
+  }
+  rpy=$data/tum-fr1-rpy-300
+  scale_run rpy --dataset "$rpy"
+  scale_run rpy_threads1 --dataset "$rpy" --threads 1
+  scale_run synth600 --dataset "$synth_dir/synth_600"
+  scale_run synth2000 --dataset "$synth_dir/synth_2000"
+  scale_run synth2000_threads1 --dataset "$synth_dir/synth_2000" --threads 1
+  scale_run rpy_refine --dataset "$rpy" --refine
+  scale_run rpy_refine_interval1 --dataset "$rpy" --selector interval --interval 1 --refine
+  printf 'filter:\n  iterative_recovery: 0\n' > "$out/exact_eif.yaml"
+  "$ieslam" simulate --output "$out/simulate_exact" --runs 1 --buffers 3 \
+    --config "$out/exact_eif.yaml" --quiet > /dev/null
+  cp "$out/simulate_exact/report.json" "$out/simulate_exact_report.json"
+fi
 
 uptime > "$out/load_after.txt"
 echo $(( $(date +%s) - started )) > "$out/bench_seconds.txt"
