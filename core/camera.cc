@@ -116,6 +116,16 @@ Eigen::Vector3d RangeImager::PixelToPoint(const Eigen::Vector2d& pixel, double v
                                      : Eigen::Vector3d(ray.normalized() * value_m);
 }
 
+RangeRays::RangeRays(const RangeImager& range) : width_(range.camera.width) {
+  rays_.reserve(static_cast<size_t>(range.camera.width) * range.camera.height);
+  for (int y = 0; y < range.camera.height; ++y) {
+    for (int x = 0; x < range.camera.width; ++x) {
+      const Eigen::Vector3d ray = range.camera.Unproject(Eigen::Vector2d(x, y));
+      rays_.push_back(range.depth_kind == DepthKind::kZ ? ray : Eigen::Vector3d(ray.normalized()));
+    }
+  }
+}
+
 bool Rig::Check(std::string* why) const {
   std::string part;
   if (!colour.Check(&part)) return Fail(why, "colour camera: " + part);

@@ -36,10 +36,11 @@ RangeCloud EmptyRangeCloud(const RangeImager& range, const Eigen::Isometry3d& T_
 // (RangeCloudOptions says which are used and when the point is refused).
 class GridPointEstimator {
  public:
-  GridPointEstimator(const cv::Mat& depth, const RangeImager& range,
+  GridPointEstimator(const cv::Mat& depth, const RangeImager& range, const RangeRays* rays,
                      const RangeCloudOptions& options, const std::string& what)
       : depth_(depth),
         range_(range),
+        rays_(rays),
         options_(options),
         what_(what),
         radius_(options.step),
@@ -98,12 +99,14 @@ class GridPointEstimator {
     if (x < 0 || y < 0 || x >= depth_.cols || y >= depth_.rows) return false;
     const float value = depth_.at<float>(y, x);
     if (!(value > 0.0f) || !std::isfinite(value)) return false;
-    *p = range_.PixelToPoint(Eigen::Vector2d(x, y), value);
+    *p = rays_ != nullptr ? rays_->PixelToPoint(x, y, value)
+                          : range_.PixelToPoint(Eigen::Vector2d(x, y), value);
     return z0 <= 0.0 || std::abs(p->z() - z0) <= options_.max_neighbour_depth_ratio * z0;
   }
 
   const cv::Mat& depth_;
   const RangeImager& range_;
+  const RangeRays* rays_;
   const RangeCloudOptions& options_;
   const std::string& what_;
   const int radius_;
@@ -174,7 +177,7 @@ bool RangeCloud::Interpolate(const Eigen::Vector3d& p, double max_depth_ratio, E
 
 RangeCloud MakeRangeCloud(const cv::Mat& depth, const RangeImager& range,
                           const Eigen::Isometry3d& T_colour_range, const RangeCloudOptions& options,
-                          const std::string& what) {
+                          const std::string& what, const RangeRays* rays) {
   std::string why;
   if (!options.Check(&why)) throw ConfigError(why);
   if (depth.type() != CV_32FC1 || depth.cols != range.camera.width ||
@@ -186,7 +189,7 @@ RangeCloud MakeRangeCloud(const cv::Mat& depth, const RangeImager& range,
   }
   const int step = options.step;
   RangeCloud cloud = EmptyRangeCloud(range, T_colour_range, step);
-  const GridPointEstimator estimator(depth, range, options, what);
+  const GridPointEstimator estimator(depth, range, rays, options, what);
   for (int gy = 0; gy < cloud.grid.height; ++gy) {
     for (int gx = 0; gx < cloud.grid.width; ++gx) {
       Eigen::Vector3d p, n;

@@ -55,7 +55,8 @@ void DenseMap::AddPoints(const std::vector<Point>& points) {
 }
 
 std::vector<DenseMap::Point> DenseMap::FramePoints(const Frame& frame, const Rig& rig,
-                                                   const Eigen::Isometry3d& T_w_c) const {
+                                                   const Eigen::Isometry3d& T_w_c,
+                                                   const RangeRays* rays) const {
   CHECK_EQ(frame.depth.type(), CV_32F);
   CHECK_EQ(frame.colour.type(), CV_8UC3);
   const Eigen::Isometry3d T_w_range = T_w_c * rig.T_colour_range;
@@ -64,7 +65,8 @@ std::vector<DenseMap::Point> DenseMap::FramePoints(const Frame& frame, const Rig
     for (int x = 0; x < frame.depth.cols; x += options_.pixel_step) {
       const float value = frame.depth.at<float>(y, x);
       if (!(value > 0.0f) || !std::isfinite(value)) continue;
-      const Eigen::Vector3d p_range = rig.range.PixelToPoint({x, y}, value);
+      const Eigen::Vector3d p_range =
+          rays != nullptr ? rays->PixelToPoint(x, y, value) : rig.range.PixelToPoint({x, y}, value);
       const Eigen::Vector3d p_colour = rig.T_colour_range * p_range;
       if (p_colour.z() <= 0.0) continue;
       const Eigen::Vector2d pixel = rig.colour.Project(p_colour);

@@ -41,8 +41,9 @@ class DenseMap {
   void AddFrame(const Frame& frame, const Rig& rig, const Eigen::Isometry3d& T_w_c);
   // AddFrame in two steps: the points (const, so callers may compute them on other threads)
   // and their accumulation. Adding frames' points in the same order gives the same map.
-  std::vector<Point> FramePoints(const Frame& frame, const Rig& rig,
-                                 const Eigen::Isometry3d& T_w_c) const;
+  // `rays`, when given, are rig.range's (the same points, faster).
+  std::vector<Point> FramePoints(const Frame& frame, const Rig& rig, const Eigen::Isometry3d& T_w_c,
+                                 const RangeRays* rays = nullptr) const;
   void AddPoints(const std::vector<Point>& points);
 
   size_t size() const { return voxels_.size(); }

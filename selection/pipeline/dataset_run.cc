@@ -54,7 +54,8 @@ struct LoadedFrame {
 };
 
 LoadedFrame LoadFrame(const Dataset& dataset, int frame, const Eigen::Isometry3d& T_w_c,
-                      const RangeCloudOptions& cloud_options, const DenseMap* map, bool cloud) {
+                      const RangeCloudOptions& cloud_options, const RangeRays& rays,
+                      const DenseMap* map, bool cloud) {
   LoadedFrame out;
   const std::string name = "frame " + std::to_string(frame);
   Frame loaded;
@@ -64,11 +65,11 @@ LoadedFrame LoadFrame(const Dataset& dataset, int frame, const Eigen::Isometry3d
     out.load_error = e.what();
     return out;
   }
-  if (map != nullptr) out.points = map->FramePoints(loaded, dataset.rig(), T_w_c);
+  if (map != nullptr) out.points = map->FramePoints(loaded, dataset.rig(), T_w_c, &rays);
   if (!cloud) return out;
   try {
     out.cloud = MakeRangeCloud(loaded.depth, dataset.rig().range, dataset.rig().T_colour_range,
-                               cloud_options, name);
+                               cloud_options, name, &rays);
   } catch (const DataError& e) {
     out.cloud_error = e.what();
   }
@@ -93,8 +94,10 @@ void LoadSelectedFrames(const Dataset& dataset, const std::vector<int>& frames,
   for (const int frame : frames) {
     if (T_w_c[frame]) placed.push_back(frame);
   }
+  if (placed.empty()) return;
+  const RangeRays rays(dataset.rig().range);
   const auto load = [&](int frame) {
-    return LoadFrame(dataset, frame, *T_w_c[frame], cloud_options, map, clouds != nullptr);
+    return LoadFrame(dataset, frame, *T_w_c[frame], cloud_options, rays, map, clouds != nullptr);
   };
   // Frames started ahead and not yet added, one per worker (each holds its images and points).
   std::deque<std::future<LoadedFrame>> ahead;

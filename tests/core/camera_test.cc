@@ -81,6 +81,29 @@ TEST(CameraTest, RangeImagerConvertsRawValues) {
   EXPECT_NEAR(range.PixelToPoint(corner, 2.0).norm(), 2.0, 1e-12);
 }
 
+// The table's points are PixelToPoint's to the bit, with distortion and for both depth
+// kinds, over the whole image.
+TEST(CameraTest, RangeRaysGiveThePixelToPointBits) {
+  for (const DepthKind kind : {DepthKind::kZ, DepthKind::kRadial}) {
+    RangeImager range;
+    range.camera = TumFreiburg1();
+    range.depth_kind = kind;
+    const RangeRays rays(range);
+    int compared = 0;
+    for (int y = 0; y < range.camera.height; y += 7) {
+      for (int x = 0; x < range.camera.width; x += 5) {
+        const double value = 0.5 + 0.001 * (x + y);
+        const Eigen::Vector3d expected = range.PixelToPoint(Eigen::Vector2d(x, y), value);
+        ASSERT_EQ(rays.PixelToPoint(x, y, value), expected) << x << ", " << y;
+        ++compared;
+      }
+    }
+    EXPECT_GT(compared, 8000);
+    // The last pixel too (the table is row-major over the whole image).
+    EXPECT_EQ(rays.PixelToPoint(639, 479, 2.0), range.PixelToPoint(Eigen::Vector2d(639, 479), 2.0));
+  }
+}
+
 TEST(CameraTest, RigCheckValidatesExtrinsicsAndNoise) {
   Rig rig;
   rig.colour = TumFreiburg1();

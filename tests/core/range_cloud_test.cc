@@ -138,6 +138,28 @@ TEST(RangeCloudTest, InterpolationRefusesCreasesAndDepthSpreads) {
   EXPECT_FALSE(slanted.Interpolate(p, 1e-4, &q, &normal, &sigma));
 }
 
+// The rays' table gives the same cloud, bit for bit, with a distorted imager and edges.
+TEST(RangeCloudTest, TheRaysTableGivesTheSameCloud) {
+  RangeImager range = testing_core::KinectRangeImager();
+  range.camera.distortion = {0.2624, -0.9531, -0.0054, 0.0026, 1.1633};
+  cv::Mat depth = PlaneDepth(range, Eigen::Vector3d(0.2, -0.1, -1.0).normalized(), -2.0);
+  depth.colRange(400, 640).setTo(1.2f);
+  const RangeRays rays(range);
+  const RangeCloud plain =
+      MakeRangeCloud(depth, range, Eigen::Isometry3d::Identity(), RangeCloudOptions(), "plain");
+  const RangeCloud tabled = MakeRangeCloud(depth, range, Eigen::Isometry3d::Identity(),
+                                           RangeCloudOptions(), "tabled", &rays);
+  ASSERT_EQ(plain.p_r.size(), tabled.p_r.size());
+  EXPECT_GT(plain.ValidCount(), 10000);
+  EXPECT_EQ(plain.ValidCount(), tabled.ValidCount());
+  for (size_t i = 0; i < plain.p_r.size(); ++i) {
+    if (!plain.Valid(static_cast<int>(i))) continue;
+    ASSERT_EQ(plain.p_r[i], tabled.p_r[i]) << i;
+    ASSERT_EQ(plain.n_r[i], tabled.n_r[i]) << i;
+    ASSERT_EQ(plain.sigma_m[i], tabled.sigma_m[i]) << i;
+  }
+}
+
 TEST(RangeCloudTest, WrongSizeOrBadOptionsAreErrors) {
   const RangeImager range = testing_core::KinectRangeImager();
   try {
