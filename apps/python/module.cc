@@ -5,6 +5,7 @@
 // and a study poll Python's signal handlers between frames (rows), so that Ctrl-C stops them
 // as it stops `ieslam run`, and raise the handler's exception (KeyboardInterrupt) once the
 // library has returned.
+#include <algorithm>
 #include <memory>
 #include <string>
 #include <vector>
@@ -161,10 +162,13 @@ py::dict Evaluate(const py::object& gt, const py::object& est, const py::kwargs&
   py::dict values;
   values["ate.pairs"] = result.ate.translation.count;
   if (result.ate_unavailable.empty()) {
-    for (const auto& [key, value] : ErrorStatsToDict(result.ate.translation)) {
-      if (std::string(py::str(key)) != "pairs")
-        values[py::str("ate." + std::string(py::str(key)))] = value;
-    }
+    const ErrorStats& ate = result.ate.translation;
+    values["ate.rmse"] = ate.rmse;
+    values["ate.mean"] = ate.mean;
+    values["ate.median"] = ate.median;
+    values["ate.std"] = ate.std;
+    values["ate.min"] = ate.min;
+    values["ate.max"] = ate.max;
   }
   values["rpe.pairs"] = result.rpe.translation.count;
   if (result.rpe_unavailable.empty()) {

@@ -53,8 +53,6 @@ std::shared_ptr<Dataset> LoadDataset(const std::string& directory, const std::st
   return OpenDataset(directory, run_options.dataset_options);
 }
 
-Trajectory GroundTruthOf(const Dataset& dataset) { return dataset.GroundTruth(); }
-
 }  // namespace
 
 void BindDataset(py::module_& m) {
@@ -104,7 +102,7 @@ void BindDataset(py::module_& m) {
                                return t;
                              })
       .def_property_readonly(
-          "ground_truth", [](const Dataset& d) { return TrajectoryToArray(GroundTruthOf(d)); },
+          "ground_truth", [](const Dataset& d) { return TrajectoryToArray(d.GroundTruth()); },
           "N x 8 (t x y z qx qy qz qw) of the frames with ground truth")
       .def_property_readonly(
           "K", [](const Dataset& d) { return Eigen::Matrix3d(d.rig().colour.K()); },
