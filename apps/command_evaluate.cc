@@ -11,8 +11,6 @@
 
 namespace ieslam {
 
-namespace {
-
 const OptionRegistry<EvaluationOptions>& EvaluationRegistry() {
   static const OptionRegistry<EvaluationOptions>* registry = [] {
     auto* r = new OptionRegistry<EvaluationOptions>;
@@ -23,19 +21,22 @@ const OptionRegistry<EvaluationOptions>& EvaluationRegistry() {
   return *registry;
 }
 
-const std::vector<OptionFlag> kOptionFlags = {{"max-diff", "max_diff_s"},
-                                              {"offset", "offset_s"},
-                                              {"scale", "scale"},
-                                              {"delta", "delta"},
-                                              {"delta-unit", "delta_unit"}};
-
-}  // namespace
+const std::vector<OptionFlag>& EvaluateOptionFlags() {
+  static const std::vector<OptionFlag>* flags =
+      new std::vector<OptionFlag>{{"max-diff", "max_diff_s"},
+                                  {"offset", "offset_s"},
+                                  {"scale", "scale"},
+                                  {"delta", "delta"},
+                                  {"delta-unit", "delta_unit"}};
+  return *flags;
+}
 
 int EvaluateCommand(const CommandArgs& args) {
   std::vector<FlagSpec> specs = {{"gt", "FILE", "ground truth, TUM format (required)"},
                                  {"est", "FILE", "estimate, TUM format (required)"},
                                  {"output", "OUT", "also write OUT/evaluation.json"}};
-  const std::vector<FlagSpec> option_specs = OptionFlagSpecs(EvaluationRegistry(), kOptionFlags);
+  const std::vector<FlagSpec> option_specs =
+      OptionFlagSpecs(EvaluationRegistry(), EvaluateOptionFlags());
   specs.insert(specs.end(), option_specs.begin(), option_specs.end());
   const Flags flags(args, specs);
   if (flags.help()) {
@@ -46,7 +47,7 @@ int EvaluateCommand(const CommandArgs& args) {
     return 0;
   }
   EvaluationOptions options;
-  ApplyOptionFlags(flags, EvaluationRegistry(), kOptionFlags, &options);
+  ApplyOptionFlags(flags, EvaluationRegistry(), EvaluateOptionFlags(), &options);
   std::string why;
   if (!options.Check(&why)) throw ConfigError(why);
 

@@ -13,17 +13,21 @@
 #include "selection/pipeline/run_report.h"
 
 namespace ieslam {
-namespace {
 
 // Flags that set one option each; the others (dataset, output, config, quiet, verbose) are
 // the command's own.
-const std::vector<OptionFlag> kOptionFlags = {
-    {"format", "dataset.format"},  {"calib", "dataset.calib"},
-    {"first", "dataset.first"},    {"last", "dataset.last"},
-    {"stride", "dataset.stride"},  {"selector", "selector.kind"},
-    {"buffer", "selector.buffer"}, {"interval", "selector.interval"},
-    {"refine", "refine"},          {"seed", "seed"},
-    {"threads", "threads"}};
+const std::vector<OptionFlag>& RunOptionFlags() {
+  static const std::vector<OptionFlag>* flags =
+      new std::vector<OptionFlag>{{"format", "dataset.format"},  {"calib", "dataset.calib"},
+                                  {"first", "dataset.first"},    {"last", "dataset.last"},
+                                  {"stride", "dataset.stride"},  {"selector", "selector.kind"},
+                                  {"buffer", "selector.buffer"}, {"interval", "selector.interval"},
+                                  {"refine", "refine"},          {"seed", "seed"},
+                                  {"threads", "threads"}};
+  return *flags;
+}
+
+namespace {
 
 std::vector<FlagSpec> RunFlagSpecs() {
   std::vector<FlagSpec> specs = {
@@ -32,7 +36,7 @@ std::vector<FlagSpec> RunFlagSpecs() {
       {"config", "FILE", "YAML with the options of every stage (ieslam options writes one)"},
       {"quiet", "", "no progress output"},
       {"verbose", "", "also log every selector decision (candidates, gains, frames added)"}};
-  const std::vector<FlagSpec> options = OptionFlagSpecs(RunOptions::Registry(), kOptionFlags);
+  const std::vector<FlagSpec> options = OptionFlagSpecs(RunOptions::Registry(), RunOptionFlags());
   specs.insert(specs.end(), options.begin(), options.end());
   return specs;
 }
@@ -42,7 +46,7 @@ RunOptions RunOptionsFromFlags(const Flags& flags) {
   RunOptions options;
   if (flags.Has("config")) ApplyConfigFile(flags.Require("config"), &options);
   options.dataset = flags.Require("dataset");
-  ApplyOptionFlags(flags, RunOptions::Registry(), kOptionFlags, &options);
+  ApplyOptionFlags(flags, RunOptions::Registry(), RunOptionFlags(), &options);
   std::string why;
   if (!options.Check(&why)) throw ConfigError(why);
   return options;

@@ -8,6 +8,7 @@
 #include <glog/logging.h>
 
 #include "apps/flags.h"
+#include "backend/evaluation/evaluation.h"
 #include "core/option_registry.h"
 
 namespace ieslam {
@@ -16,6 +17,13 @@ struct OptionFlag {
   std::string flag;    // without the dashes
   std::string option;  // "section.key", or "key" at the top level
 };
+
+// The flags' specs: a boolean option (0|1) is a flag without a value.
+// The flags of `ieslam run` and of `ieslam evaluate` that set options, and the options
+// `ieslam evaluate` reads: the Python module's keyword arguments set the same options.
+const std::vector<OptionFlag>& RunOptionFlags();
+const std::vector<OptionFlag>& EvaluateOptionFlags();
+const OptionRegistry<EvaluationOptions>& EvaluationRegistry();
 
 // The flags' specs: a boolean option (0|1) is a flag without a value.
 template <typename R>

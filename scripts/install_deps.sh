@@ -7,7 +7,7 @@ packages=(
   cmake g++ make pkg-config clang-format
   libceres-dev libeigen3-dev libopencv-dev libopengv-dev libflann-dev libsuitesparse-dev
   libgtest-dev libbenchmark-dev
-  python3-matplotlib
+  python3-matplotlib pybind11-dev python3-numpy python3-pytest
   snakemake slurm-wlm slurm-client munge time
 )
 
