@@ -103,9 +103,24 @@ std::string ObservationName(const BundleAdjustmentObservation& obs) {
   return out.str();
 }
 
-ceres::LinearSolverType ToCeres(BaLinearSolver solver) {
-  return solver == BaLinearSolver::kSparseSchur ? ceres::SPARSE_SCHUR
-                                                : ceres::SPARSE_NORMAL_CHOLESKY;
+// `density` is called only where auto needs it.
+ceres::LinearSolverType ToCeres(BaLinearSolver solver, int free_poses,
+                                const std::function<double()>& density, double* used_density) {
+  switch (solver) {
+    case BaLinearSolver::kAuto: {
+      if (free_poses <= kDenseSchurAlwaysPoses) return ceres::DENSE_SCHUR;
+      if (free_poses > kDenseSchurMaxPoses) return ceres::SPARSE_SCHUR;
+      *used_density = density();
+      return *used_density >= kDenseSchurMinDensity ? ceres::DENSE_SCHUR : ceres::SPARSE_SCHUR;
+    }
+    case BaLinearSolver::kDenseSchur:
+      return ceres::DENSE_SCHUR;
+    case BaLinearSolver::kSparseSchur:
+      return ceres::SPARSE_SCHUR;
+    case BaLinearSolver::kSparseNormalCholesky:
+      break;
+  }
+  return ceres::SPARSE_NORMAL_CHOLESKY;
 }
 
 // Fills result->pose_covariances{,_euler} of the poses of `frames`. Ceres' tangent of the
@@ -208,6 +223,7 @@ class BundleAdjustmentRun {
 
   // The residual blocks, the gauge, and the solver. Throws DataError (AddObservations).
   void Build(int anchor_id) {
+    anchor_id_ = anchor_id;
     AddObservations();
     AddRelativePoses();
     if (frame_uses_.count(anchor_id) > 0) {
@@ -224,7 +240,12 @@ class BundleAdjustmentRun {
       summary_ = ceres::Solver::Summary();
       return;
     }
-    if (options_.linear_solver == BaLinearSolver::kSparseSchur) {
+    const int free_poses = static_cast<int>(frame_uses_.size() - frame_uses_.count(anchor_id_));
+    result_->reduced_system_density = -1.0;
+    solver_options_.linear_solver_type = ToCeres(
+        options_.linear_solver, free_poses, [this] { return ReducedSystemDensity(); },
+        &result_->reduced_system_density);
+    if (solver_options_.linear_solver_type != ceres::SPARSE_NORMAL_CHOLESKY) {
       // Features first: eliminating them leaves the reduced camera system of the poses.
       auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
       for (const auto& [feature_id, uses] : feature_uses_) {
@@ -237,8 +258,8 @@ class BundleAdjustmentRun {
       solver_options_.linear_solver_ordering = ordering;
     }
     ceres::Solve(solver_options_, &ceres_problem_, &summary_);
-    if (first_solve_) result_->initial_cost = summary_.initial_cost;
-    first_solve_ = false;
+    if (result_->solves++ == 0) result_->initial_cost = summary_.initial_cost;
+    result_->linear_solver = ceres::LinearSolverTypeToString(summary_.linear_solver_type_used);
     result_->iterations += static_cast<int>(summary_.iterations.size());
   }
 
@@ -268,6 +289,9 @@ class BundleAdjustmentRun {
   // that overstates the noise keeps it).
   double NormsAndGate(const std::vector<ceres::ResidualBlockId>& blocks, double median, double gate,
                       std::vector<double>* norms, double* variance_factor);
+  // The share of the pairs of free poses whose block of the reduced camera system is not
+  // zero: they share a kept observation's feature or a kept relative pose.
+  double ReducedSystemDensity() const;
   // A block no residual uses any more leaves too: Ceres' ordering and covariance would
   // meet a parameter the problem does not determine.
   void ReleaseFrame(int frame_id);
@@ -287,7 +311,7 @@ class BundleAdjustmentRun {
   std::map<int64_t, int> feature_uses_;
   ceres::Solver::Options solver_options_;
   ceres::Solver::Summary summary_;
-  bool first_solve_ = true;
+  int anchor_id_ = -1;
 
   // Ends the solve once options.stop says so (after the iteration in progress).
   class StopCallback : public ceres::IterationCallback {
@@ -303,6 +327,21 @@ class BundleAdjustmentRun {
     BundleAdjustmentRun* run_;
   };
   StopCallback stop_callback_{this};
+
+  // Ends the solve after a successful step that gained less than options.cost_tolerance.
+  class CostToleranceCallback : public ceres::IterationCallback {
+   public:
+    explicit CostToleranceCallback(double tolerance) : tolerance_(tolerance) {}
+    ceres::CallbackReturnType operator()(const ceres::IterationSummary& summary) override {
+      return summary.iteration > 0 && summary.step_is_successful && summary.cost_change < tolerance_
+                 ? ceres::SOLVER_TERMINATE_SUCCESSFULLY
+                 : ceres::SOLVER_CONTINUE;
+    }
+
+   private:
+    double tolerance_;
+  };
+  CostToleranceCallback cost_tolerance_callback_{options_.cost_tolerance};
 };
 
 void BundleAdjustmentRun::AddObservations() {
@@ -359,7 +398,6 @@ void BundleAdjustmentRun::AddRelativePoses() {
 void BundleAdjustmentRun::SetSolverOptions() {
   solver_options_.minimizer_type = ceres::TRUST_REGION;
   solver_options_.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
-  solver_options_.linear_solver_type = ToCeres(options_.linear_solver);
   solver_options_.sparse_linear_algebra_library_type = ceres::SUITE_SPARSE;
   solver_options_.max_num_iterations = options_.max_iterations;
   solver_options_.function_tolerance = options_.function_tolerance;
@@ -369,6 +407,9 @@ void BundleAdjustmentRun::SetSolverOptions() {
   solver_options_.logging_type = ceres::SILENT;
   solver_options_.minimizer_progress_to_stdout = false;
   if (options_.stop) solver_options_.callbacks.push_back(&stop_callback_);
+  if (options_.cost_tolerance > 0.0) {
+    solver_options_.callbacks.push_back(&cost_tolerance_callback_);
+  }
 }
 
 double BundleAdjustmentRun::NormsAndGate(const std::vector<ceres::ResidualBlockId>& blocks,
@@ -389,6 +430,39 @@ double BundleAdjustmentRun::NormsAndGate(const std::vector<ceres::ResidualBlockI
   std::nth_element(kept.begin(), middle, kept.end());
   *variance_factor = std::max(1.0, *middle / median);
   return gate * *variance_factor;
+}
+
+double BundleAdjustmentRun::ReducedSystemDensity() const {
+  std::map<int, size_t> index;  // free poses, 0..n-1
+  for (const auto& [frame_id, uses] : frame_uses_) {
+    if (frame_id != anchor_id_) index.emplace(frame_id, index.size());
+  }
+  const size_t n = index.size();
+  if (n < 2) return 1.0;
+  std::vector<char> filled(n * n, 0);
+  const auto fill = [&](int a, int b) {
+    const auto ia = index.find(a), ib = index.find(b);
+    if (ia == index.end() || ib == index.end() || ia->second == ib->second) return;
+    filled[std::min(ia->second, ib->second) * n + std::max(ia->second, ib->second)] = 1;
+  };
+  std::map<int64_t, std::vector<int>> frames_of_feature;
+  for (size_t k = 0; k < block_of_.size(); ++k) {
+    if (block_of_[k] == nullptr) continue;
+    frames_of_feature[problem_.observations[k].observation.feature_id].push_back(
+        problem_.observations[k].frame_id);
+  }
+  for (const auto& [feature_id, frames] : frames_of_feature) {
+    for (size_t i = 0; i < frames.size(); ++i) {
+      for (size_t j = i + 1; j < frames.size(); ++j) fill(frames[i], frames[j]);
+    }
+  }
+  for (size_t k = 0; k < relative_block_.size(); ++k) {
+    if (relative_block_[k] != nullptr) {
+      fill(problem_.relative_poses[k].frame_i, problem_.relative_poses[k].frame_j);
+    }
+  }
+  const size_t blocks = std::count(filled.begin(), filled.end(), 1);
+  return static_cast<double>(blocks) / (n * (n - 1) / 2);
 }
 
 void BundleAdjustmentRun::ReleaseFrame(int frame_id) {
@@ -505,7 +579,17 @@ std::string BaCovarianceName(BaCovariance method) {
 }
 
 std::string BaLinearSolverName(BaLinearSolver solver) {
-  return solver == BaLinearSolver::kSparseSchur ? "sparse_schur" : "sparse_normal_cholesky";
+  switch (solver) {
+    case BaLinearSolver::kAuto:
+      return "auto";
+    case BaLinearSolver::kDenseSchur:
+      return "dense_schur";
+    case BaLinearSolver::kSparseSchur:
+      return "sparse_schur";
+    case BaLinearSolver::kSparseNormalCholesky:
+      break;
+  }
+  return "sparse_normal_cholesky";
 }
 
 namespace {
@@ -522,7 +606,8 @@ bool ParseBaCovariance(const std::string& name, BaCovariance* method) {
 
 bool ParseBaLinearSolver(const std::string& name, BaLinearSolver* solver) {
   for (const BaLinearSolver candidate :
-       {BaLinearSolver::kSparseSchur, BaLinearSolver::kSparseNormalCholesky}) {
+       {BaLinearSolver::kAuto, BaLinearSolver::kDenseSchur, BaLinearSolver::kSparseSchur,
+        BaLinearSolver::kSparseNormalCholesky}) {
     if (name == BaLinearSolverName(candidate)) {
       *solver = candidate;
       return true;
@@ -546,6 +631,9 @@ const OptionTable<BundleAdjustmentOptions>& BundleAdjustmentOptions::Table() {
     t->Int("max_rejection_rounds", &O::max_rejection_rounds, "solves after rejections at most")
         .Min(0);
     t->Int("max_iterations", &O::max_iterations, "Levenberg-Marquardt iterations per solve").Min(1);
+    t->Double("cost_tolerance", &O::cost_tolerance,
+              "a step gaining less cost (1/2 chi-square) ends a solve (0: off)")
+        .Min(0.0);
     t->Double("function_tolerance", &O::function_tolerance,
               "relative cost decrease below which a solve stops")
         .Min(0.0);
@@ -553,7 +641,8 @@ const OptionTable<BundleAdjustmentOptions>& BundleAdjustmentOptions::Table() {
     t->Double("parameter_tolerance", &O::parameter_tolerance, "Ceres' parameter tolerance")
         .Min(0.0);
     t->Enum("linear_solver", &O::linear_solver, ParseBaLinearSolver, BaLinearSolverName,
-            "sparse_schur|sparse_normal_cholesky", "Ceres' linear solver");
+            "auto|dense_schur|sparse_schur|sparse_normal_cholesky",
+            "Ceres' linear solver (auto: dense Schur for few poses or a full system)");
     t->Int("num_threads", &O::num_threads, "Ceres' threads: from the run's threads")
         .Min(1)
         .Derived();

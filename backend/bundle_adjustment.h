@@ -30,16 +30,36 @@ namespace ieslam {
 class InformationFilter;
 
 enum class BaRobustLoss { kNone, kHuber };
-enum class BaLinearSolver { kSparseSchur, kSparseNormalCholesky };
+enum class BaLinearSolver { kAuto, kDenseSchur, kSparseSchur, kSparseNormalCholesky };
 
 std::string BaRobustLossName(BaRobustLoss loss);  // "none", "huber"
 // The loss named `name` (as BaRobustLossName writes it); false for any other name.
 bool ParseBaRobustLoss(const std::string& name, BaRobustLoss* loss);
-std::string BaLinearSolverName(BaLinearSolver solver);  // "sparse_schur", ...
+std::string BaLinearSolverName(BaLinearSolver solver);  // "auto", "dense_schur", ...
 std::string BaCovarianceName(BaCovariance method);      // "schur", "sparse_qr"
+
+// BaLinearSolver::kAuto factors the reduced camera system densely (Eigen) when it has at most
+// kDenseSchurMaxPoses free poses and either at most kDenseSchurAlwaysPoses or at least
+// kDenseSchurMinDensity of its off-diagonal pose blocks filled (two poses share a feature or a
+// relative pose), and sparsely (CHOLMOD) otherwise. A room seen over and over fills the system
+// nearly completely, and a nearly full system costs a sparse factorisation the dense flops
+// plus its bookkeeping (Ceres assembles it cell by cell in a hash map): the dense solve is then
+// faster. A long path through new places leaves it sparse, where CHOLMOD's fill-reducing order
+// wins. The cap keeps the dense matrix (36 n^2 doubles) under ~650 MB.
+constexpr int kDenseSchurAlwaysPoses = 200;
+constexpr int kDenseSchurMaxPoses = 1500;
+constexpr double kDenseSchurMinDensity = 0.2;
 
 struct BundleAdjustmentOptions {
   int max_iterations = 100;
+  // A solve stops after a successful step that lowered the cost by less than this, in the
+  // cost's own units (1/2 chi-square). Near the optimum the cost exceeds its minimum by
+  // 1/2 dx^T H dx and Levenberg-Marquardt's steps shrink geometrically, so a step that
+  // gains 0.005 leaves the estimate about sqrt(2 * 0.005) = 0.1 sigma (Mahalanobis, in all
+  // parameters together) from the optimum: far below the noise the result is judged by,
+  // whatever the problem's size. A relative tolerance alone stops later the larger the
+  // problem (its cost grows with the observations). 0: only the tolerances below.
+  double cost_tolerance = 0.005;
   // Relative cost decrease below which Levenberg-Marquardt stops. Tighter than Ceres'
   // default (1e-6) because the result is a reference for the filter, not a quick fix.
   double function_tolerance = 1e-10;
@@ -59,9 +79,11 @@ struct BundleAdjustmentOptions {
   // (docs/filter_internals.md). 0: keep every observation (the filter's exact problem).
   double rejection_chi2 = 16.27;
   int max_rejection_rounds = 5;
-  // Features are eliminated first (the Schur complement leaves the small pose system);
-  // both factor with SuiteSparse/CHOLMOD.
-  BaLinearSolver linear_solver = BaLinearSolver::kSparseSchur;
+  // With the Schur solvers the features are eliminated first and the reduced camera system
+  // of the poses is factored, densely (Eigen) or sparsely (SuiteSparse/CHOLMOD);
+  // sparse_normal_cholesky factors the whole normal equations with CHOLMOD. auto: dense
+  // or sparse Schur by the reduced system's size and fill (kDenseSchurMaxPoses).
+  BaLinearSolver linear_solver = BaLinearSolver::kAuto;
   // 1: the same input gives bit-identical output.
   int num_threads = 1;
   // Per-pose 6x6 marginal covariances of the last solve, from the Gauss-Newton information
@@ -177,10 +199,15 @@ struct BundleAdjustmentResult {
   double initial_cost = 0.0;  // Ceres' 1/2 sum |r|^2 (after the robust loss), first solve
   double final_cost = 0.0;    // of the last solve, over the observations kept
   int iterations = 0;         // summed over the solves
-  int num_residuals = 0;      // scalar residuals: 3 per observation kept, 6 per relative pose
-  bool usable = false;        // Ceres: CONVERGENCE or NO_CONVERGENCE with a finite cost
-  bool interrupted = false;   // options.stop ended it before it converged
-  std::string termination;    // Ceres' termination type and message
+  int solves = 0;             // the first and one after each round of rejections
+  std::string linear_solver;  // Ceres' name of the last solve's (e.g. "DENSE_SCHUR")
+  // The share of the reduced camera system's off-diagonal pose blocks that are filled, at
+  // the last solve (computed for linear_solver auto up to kDenseSchurMaxPoses; else -1).
+  double reduced_system_density = -1.0;
+  int num_residuals = 0;     // scalar residuals: 3 per observation kept, 6 per relative pose
+  bool usable = false;       // Ceres: CONVERGENCE or NO_CONVERGENCE with a finite cost
+  bool interrupted = false;  // options.stop ended it before it converged
+  std::string termination;   // Ceres' termination type and message
   double solve_time_s = 0.0;
   double covariance_time_s = 0.0;
 };

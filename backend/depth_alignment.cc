@@ -32,21 +32,52 @@ double Huber(double abs_whitened, double k) {
   return abs_whitened <= k ? 0.5 * abs_whitened * abs_whitened : k * (abs_whitened - 0.5 * k);
 }
 
+// Source point `index` moved by Y to *a has a partner on the target's surface: the
+// interpolated point *q with normal *n and range sigma *sigma_t within gate_m of it, the
+// normals within the options' angle.
+bool Partner(const RangeCloud& source, const RangeCloud& target, int index,
+             const Eigen::Isometry3d& Y, double gate_m, double min_normal_cos,
+             const DepthAlignmentOptions& options, Eigen::Vector3d* a, Eigen::Vector3d* q,
+             Eigen::Vector3d* n, double* sigma_t) {
+  *a = Y * source.p_r[index].cast<double>();
+  return target.Interpolate(*a, options.max_depth_ratio, q, n, sigma_t) &&
+         !((*a - *q).squaredNorm() > gate_m * gate_m) &&
+         !((Y.linear() * source.n_r[index].cast<double>()).dot(*n) < min_normal_cos);
+}
+
+double MinNormalCos(const DepthAlignmentOptions& options) {
+  return std::cos(options.max_normal_angle_deg * M_PI / 180.0);
+}
+
+// How many of `samples` have a partner (Partner) at Y: the overlap test, without the
+// normal equations.
+int CountPartners(const RangeCloud& source, const RangeCloud& target,
+                  const std::vector<int>& samples, const Eigen::Isometry3d& Y, double gate_m,
+                  const DepthAlignmentOptions& options) {
+  const double min_normal_cos = MinNormalCos(options);
+  int count = 0;
+  Eigen::Vector3d a, q, n;
+  double sigma_t = 0.0;
+  for (const int index : samples) {
+    if (Partner(source, target, index, Y, gate_m, min_normal_cos, options, &a, &q, &n, &sigma_t)) {
+      ++count;
+    }
+  }
+  return count;
+}
+
 NormalEquations Associate(const RangeCloud& source, const RangeCloud& target,
                           const std::vector<int>& samples, const Eigen::Isometry3d& Y,
                           double gate_m, const DepthAlignmentOptions& options) {
-  const double min_normal_cos = std::cos(options.max_normal_angle_deg * M_PI / 180.0);
+  const double min_normal_cos = MinNormalCos(options);
   NormalEquations eq;
   eq.abs_whitened.reserve(samples.size());
   for (const int index : samples) {
     const double sigma_s = source.sigma_m[index];
     const double unmatched = Huber(gate_m / (std::sqrt(2.0) * sigma_s), options.huber_sigmas);
-    const Eigen::Vector3d a = Y * source.p_r[index].cast<double>();
-    Eigen::Vector3d q, n;
+    Eigen::Vector3d a, q, n;
     double sigma_t = 0.0;
-    if (!target.Interpolate(a, options.max_depth_ratio, &q, &n, &sigma_t) ||
-        (a - q).squaredNorm() > gate_m * gate_m ||
-        (Y.linear() * source.n_r[index].cast<double>()).dot(n) < min_normal_cos) {
+    if (!Partner(source, target, index, Y, gate_m, min_normal_cos, options, &a, &q, &n, &sigma_t)) {
       eq.cost += unmatched;
       continue;
     }
@@ -289,14 +320,15 @@ std::vector<RelativePoseConstraint> AlignCloudPairs(const std::map<int, RangeClo
     for (size_t b = a + 1; b < frames.size(); ++b) all_pairs.emplace_back(a, b);
   }
   std::vector<double> overlap(all_pairs.size(), 0.0);
+  const auto screen_start = std::chrono::steady_clock::now();
   ParallelFor(all_pairs.size(), options.num_threads, [&](size_t k) {
     const auto [a, b] = all_pairs[k];
     if (coarse_samples[a].empty()) return;
-    const NormalEquations eq =
-        Associate(clouds.at(frames[a]), clouds.at(frames[b]), coarse_samples[a],
-                  T_w_s[b].inverse() * T_w_s[a], options.initial_gate_m, options);
-    overlap[k] = static_cast<double>(eq.count) / coarse_samples[a].size();
+    const int count = CountPartners(clouds.at(frames[a]), clouds.at(frames[b]), coarse_samples[a],
+                                    T_w_s[b].inverse() * T_w_s[a], options.initial_gate_m, options);
+    overlap[k] = static_cast<double>(count) / coarse_samples[a].size();
   });
+  if (stats != nullptr) stats->seconds_screen += SecondsSince(screen_start);
   const std::vector<char> keep = SpreadPartners(all_pairs, overlap, frames.size(), options);
   std::vector<std::pair<int, int>> pairs;
   std::vector<Eigen::Isometry3d> T_j_i;

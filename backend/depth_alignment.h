@@ -94,6 +94,7 @@ struct DepthAlignmentStats {
   int constraints = 0;  // last round: pairs aligned and used
   double mean_overlap = 0.0;
   double seconds_alignment = 0.0;  // all rounds
+  double seconds_screen = 0.0;     // of which finding the overlapping pairs
   double seconds_ba = 0.0;
 };
 

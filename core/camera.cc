@@ -34,26 +34,10 @@ bool PinholeCamera::Check(std::string* why) const {
   return true;
 }
 
-bool PinholeCamera::HasDistortion() const {
-  for (double d : distortion) {
-    if (d != 0.0) return true;
-  }
-  return false;
-}
-
 Eigen::Matrix3d PinholeCamera::K() const {
   Eigen::Matrix3d K;
   K << fx, 0.0, cx, 0.0, fy, cy, 0.0, 0.0, 1.0;
   return K;
-}
-
-Eigen::Vector2d PinholeCamera::Distort(const Eigen::Vector2d& n) const {
-  const auto& [k1, k2, p1, p2, k3] = distortion;
-  const double x = n.x(), y = n.y();
-  const double r2 = x * x + y * y;
-  const double radial = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3));
-  return {x * radial + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x),
-          y * radial + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y};
 }
 
 Eigen::Vector2d PinholeCamera::Undistort(const Eigen::Vector2d& distorted) const {
@@ -65,12 +49,6 @@ Eigen::Vector2d PinholeCamera::Undistort(const Eigen::Vector2d& distorted) const
     if (step.squaredNorm() < 1e-28) break;
   }
   return n;
-}
-
-Eigen::Vector2d PinholeCamera::Project(const Eigen::Vector3d& p_c) const {
-  Eigen::Vector2d n(p_c.x() / p_c.z(), p_c.y() / p_c.z());
-  if (HasDistortion()) n = Distort(n);
-  return {fx * n.x() + cx, fy * n.y() + cy};
 }
 
 Eigen::Vector3d PinholeCamera::Unproject(const Eigen::Vector2d& pixel) const {

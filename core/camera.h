@@ -27,17 +27,34 @@ struct PinholeCamera {
   std::array<double, 5> distortion{};  // k1, k2, p1, p2, k3
 
   bool Check(std::string* why) const;
-  bool HasDistortion() const;
+  bool HasDistortion() const {
+    for (double d : distortion) {
+      if (d != 0.0) return true;
+    }
+    return false;
+  }
   Eigen::Matrix3d K() const;
 
-  // Normalised image coordinates (x/z, y/z) through the distortion model and back.
-  Eigen::Vector2d Distort(const Eigen::Vector2d& normalised) const;
+  // Normalised image coordinates (x/z, y/z) through the distortion model and back. Defined
+  // here, as Project, so that the per-point loops of the dense alignment inline them.
+  Eigen::Vector2d Distort(const Eigen::Vector2d& n) const {
+    const auto& [k1, k2, p1, p2, k3] = distortion;
+    const double x = n.x(), y = n.y();
+    const double r2 = x * x + y * y;
+    const double radial = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3));
+    return {x * radial + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x),
+            y * radial + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y};
+  }
   // Inverse of Distort by fixed-point iteration (as cv::undistortPoints); exact to ~1e-12
   // for the distortions of real lenses inside the image.
   Eigen::Vector2d Undistort(const Eigen::Vector2d& distorted) const;
 
   // Pixel of a point in the camera frame (z > 0 is the caller's business).
-  Eigen::Vector2d Project(const Eigen::Vector3d& p_c) const;
+  Eigen::Vector2d Project(const Eigen::Vector3d& p_c) const {
+    Eigen::Vector2d n(p_c.x() / p_c.z(), p_c.y() / p_c.z());
+    if (HasDistortion()) n = Distort(n);
+    return {fx * n.x() + cx, fy * n.y() + cy};
+  }
   // The bearing ray through a pixel, scaled so that its z component is 1.
   Eigen::Vector3d Unproject(const Eigen::Vector2d& pixel) const;
   bool InImage(const Eigen::Vector2d& pixel, double border = 0.0) const;

@@ -27,6 +27,9 @@ Json SolverToJson(const BundleAdjustmentResult& r) {
       .Set("initial_cost", r.initial_cost)
       .Set("final_cost", r.final_cost)
       .Set("iterations", r.iterations)
+      .Set("solves", r.solves)
+      .Set("linear_solver", r.linear_solver)
+      .Set("reduced_system_density", r.reduced_system_density)
       .Set("residuals", r.num_residuals)
       .Set("rejected_observations", static_cast<int>(r.rejected.size()))
       .Set("rejected_share",
@@ -50,6 +53,7 @@ Json DepthAlignmentToJson(const Refinement& refinement) {
       .Set("frames_left_out", refinement.depth_frames_left_out)
       .Set("mean_overlap", stats.mean_overlap)
       .Set("seconds_alignment", stats.seconds_alignment)
+      .Set("seconds_screen", stats.seconds_screen)
       .Set("seconds_ba", stats.seconds_ba)
       .Set("change_from_ba_translation_rmse_m", change.translation_m.rmse)
       .Set("change_from_ba_rotation_rmse_deg", change.rotation_deg.rmse)

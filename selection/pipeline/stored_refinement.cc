@@ -110,6 +110,7 @@ RangeClouds LoadRangeCloudsAtTimestamps(const Dataset& dataset, const StoredBaPr
   for (int i = 0; i < dataset.size(); ++i) stamps.push_back(dataset.info(i).timestamp);
   const std::map<int, size_t> matched = FramesAtStamps(stored, stamps, kSameTimestampS);
   RangeClouds loaded;
+  const RangeRays rays(dataset.rig().range);
   for (const auto& [frame, T_w_c] : stored.problem.T_w_c) {
     const std::string left_out =
         "frame " + std::to_string(frame) + " left out of the depth alignment: ";
@@ -123,7 +124,7 @@ RangeClouds LoadRangeCloudsAtTimestamps(const Dataset& dataset, const StoredBaPr
       const Frame frame_data = dataset.Load(static_cast<int>(it->second));
       loaded.clouds[frame] =
           MakeRangeCloud(frame_data.depth, dataset.rig().range, dataset.rig().T_colour_range,
-                         options, "frame " + std::to_string(frame));
+                         options, "frame " + std::to_string(frame), &rays);
     } catch (const DataError& e) {
       warnings->push_back(left_out + e.what());
       ++loaded.frames_left_out;

@@ -410,6 +410,107 @@ TEST(BundleAdjustmentTest, NoisyProblemReachesTheChiSquareCostAndBeatsTheStart) 
   EXPECT_LT(mean_nees, 20.0);
 }
 
+// The cost tolerance stops a solve early but within a tenth of a sigma of the optimum: the
+// cost above the optimum's is below the tolerance (1/2 dx^T H dx, so |dx|_H < 0.1) and each
+// pose lies within 0.1 sigma of the optimum's under its marginal covariance.
+TEST(BundleAdjustmentTest, CostToleranceStopsWithinATenthOfASigmaOfTheOptimum) {
+  std::mt19937 rng(5);
+  const TestScene scene = MakeTestScene(10, 100, &rng);
+  const BundleAdjustmentProblem problem = MakeTestProblem(scene, 0.03, 0.02, 0.05, true, &rng);
+  BundleAdjustmentOptions options;
+  options.rejection_chi2 = 0.0;
+  ASSERT_GT(options.cost_tolerance, 0.0);
+  const BundleAdjustmentResult stopped = SolveBundleAdjustment(problem, scene.camera, options);
+  options.cost_tolerance = 0.0;
+  options.function_tolerance = 1e-15;
+  options.gradient_tolerance = 1e-15;
+  options.parameter_tolerance = 1e-15;
+  const BundleAdjustmentResult optimum = SolveBundleAdjustment(problem, scene.camera, options);
+  ASSERT_TRUE(stopped.usable) << stopped.termination;
+  ASSERT_TRUE(optimum.usable) << optimum.termination;
+  EXPECT_LT(stopped.iterations, optimum.iterations);
+  EXPECT_GE(stopped.final_cost, optimum.final_cost - 1e-9);
+  EXPECT_LT(stopped.final_cost - optimum.final_cost, 0.005);
+  for (const auto& [frame_id, P] : optimum.pose_covariances_euler) {
+    if (frame_id == scene.poses.begin()->first) continue;
+    const Vector6d e = PoseDifference(stopped.poses.at(frame_id), optimum.poses.at(frame_id));
+    EXPECT_LT(e.dot(P.ldlt().solve(e)), 0.01) << "frame " << frame_id;
+  }
+}
+
+// Dense and sparse Schur and the full normal equations solve the same problem to the same
+// optimum; auto is one of them.
+TEST(BundleAdjustmentTest, LinearSolversReachTheSameOptimum) {
+  std::mt19937 rng(7);
+  const TestScene scene = MakeTestScene(8, 80, &rng);
+  const BundleAdjustmentProblem problem = MakeTestProblem(scene, 0.03, 0.02, 0.05, true, &rng);
+  BundleAdjustmentOptions options;
+  options.cost_tolerance = 0.0;
+  options.compute_covariances = false;
+  const BundleAdjustmentResult reference = SolveBundleAdjustment(problem, scene.camera, options);
+  ASSERT_TRUE(reference.usable) << reference.termination;
+  EXPECT_EQ(reference.linear_solver, "DENSE_SCHUR");  // 7 free poses
+  for (const BaLinearSolver solver : {BaLinearSolver::kDenseSchur, BaLinearSolver::kSparseSchur,
+                                      BaLinearSolver::kSparseNormalCholesky}) {
+    options.linear_solver = solver;
+    const BundleAdjustmentResult result = SolveBundleAdjustment(problem, scene.camera, options);
+    ASSERT_TRUE(result.usable) << BaLinearSolverName(solver) << ": " << result.termination;
+    EXPECT_NEAR(result.final_cost, reference.final_cost, 1e-6 * reference.final_cost);
+    for (const auto& [frame_id, T] : reference.T_w_c) {
+      EXPECT_LT((result.T_w_c.at(frame_id).matrix() - T.matrix()).norm(), 1e-6)
+          << BaLinearSolverName(solver) << ", frame " << frame_id;
+    }
+  }
+}
+
+// 210 poses in a row looking along +z at a wall of points: with every point seen from every
+// pose the reduced camera system is full and auto factors it densely; with each point seen
+// from three neighbouring poses only it is a band, and auto factors it sparsely.
+TEST(BundleAdjustmentTest, AutoSolverFollowsTheReducedSystemsFill) {
+  ASSERT_GT(210, kDenseSchurAlwaysPoses);
+  for (const bool everywhere : {true, false}) {
+    std::mt19937 rng(9);
+    std::uniform_real_distribution<double> unit(-1.0, 1.0);
+    testing_ba::TestScene scene;
+    const int num_poses = 210, num_points = everywhere ? 40 : 2 * num_poses;
+    for (int k = 0; k < num_poses; ++k) {
+      Vector6d pose;
+      pose << 0.01 * k, 0.0, 0.0, 0.0, 0.0, 0.0;
+      scene.poses[k] = pose;
+    }
+    for (int j = 0; j < num_points; ++j) {
+      const double x = everywhere ? 1.05 + 1.5 * unit(rng) : 0.005 * j;
+      scene.points[j] = Eigen::Vector3d(x, 1.5 * unit(rng), 6.5 + unit(rng));
+    }
+    for (const auto& [frame_id, pose] : scene.poses) {
+      for (const auto& [feature_id, p_w] : scene.points) {
+        if (!everywhere && std::abs(frame_id - feature_id / 2.0) > 1.5) continue;
+        FeatureObservation obs;
+        obs.feature_id = feature_id;
+        obs.z = PredictObservation(pose, p_w, scene.camera);
+        obs.Q = testing_ba::TestQ();
+        ASSERT_TRUE(scene.camera.InImage(obs.z.head<2>()));
+        scene.observations[frame_id].push_back(obs);
+      }
+    }
+    const BundleAdjustmentProblem problem =
+        MakeTestProblem(scene, 0.002, 0.001, 0.005, false, &rng);
+    BundleAdjustmentOptions options;
+    options.compute_covariances = false;
+    options.cost_tolerance = 0.0;  // noise-free: to the truth
+    const BundleAdjustmentResult result = SolveBundleAdjustment(problem, scene.camera, options);
+    ASSERT_TRUE(result.usable) << result.termination;
+    if (everywhere) {
+      EXPECT_EQ(result.linear_solver, "DENSE_SCHUR");
+      EXPECT_DOUBLE_EQ(result.reduced_system_density, 1.0);
+    } else {
+      EXPECT_EQ(result.linear_solver, "SPARSE_SCHUR");
+      EXPECT_LT(result.reduced_system_density, kDenseSchurMinDensity / 4);
+    }
+    EXPECT_LT(ErrorsToTruth(scene, result.T_w_c, result.p_w).max_translation_m, 1e-5);
+  }
+}
+
 // The Schur complement's pose covariances are ceres::Covariance's (the sparse QR of the same
 // Jacobian), with and without a robust loss; the anchor's is zero in both.
 TEST(BundleAdjustmentTest, SchurCovariancesEqualCeresCovariance) {
