@@ -77,7 +77,8 @@ int RunCommand(const CommandArgs& args) {
     std::cout << FormatHelp("run", "--dataset DIR --output OUT [flags]",
                             "Runs the SLAM pipeline on a dataset and writes keyframes.tum,\n"
                             "trajectory.tum, groundtruth.tum (with ground truth), map.ply,\n"
-                            "selected_frames.txt and report.json into OUT.",
+                            "map/map.bin (the map, for later sessions), selected_frames.txt\n"
+                            "and report.json into OUT.",
                             specs);
     return 0;
   }

@@ -78,7 +78,8 @@ RgbdFrameSource::RgbdFrameSource(const Dataset& dataset, const RgbdSourceOptions
 RgbdFrameSource::~RgbdFrameSource() = default;
 
 const ProcessedFrame& RgbdFrameSource::Processed(int frame) {
-  CHECK(!finished_) << "frame " << frame << " asked for after Finish";
+  CHECK(!finished_ && !handed_over_)
+      << "frame " << frame << " asked for after Finish or TakeBaseFrame";
   auto it = processed_.find(frame);
   if (it != processed_.end()) return it->second;
   const auto start = std::chrono::steady_clock::now();
@@ -279,6 +280,21 @@ void RgbdFrameSource::Finish() {
   registrations_.clear();
   feature_ids_.clear();
   database_.Clear();
+}
+
+std::pair<ProcessedFrame, std::vector<int64_t>> RgbdFrameSource::TakeBaseFrame(int frame) {
+  CHECK(!finished_) << "base frame " << frame << " taken after Finish";
+  const auto ids = feature_ids_.find(frame);
+  const auto processed = processed_.find(frame);
+  CHECK(ids != feature_ids_.end() && processed != processed_.end())
+      << "frame " << frame << " is no base frame the source holds";
+  std::pair<ProcessedFrame, std::vector<int64_t>> taken(std::move(processed->second),
+                                                        std::move(ids->second));
+  processed_.erase(processed);
+  feature_ids_.erase(ids);
+  // Registrations against it would need its frame: none may follow.
+  handed_over_ = true;
+  return taken;
 }
 
 void RgbdFrameSource::Release(int frame) {

@@ -14,6 +14,7 @@
 #include <map>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/dataset.h"
@@ -76,6 +77,14 @@ class RgbdFrameSource : public FrameSource {
   // Frees every processed frame, registration and the descriptor database; preparing or
   // committing a frame afterwards is a programming error (checked).
   void Finish() override;
+  // Hands base frame `frame` over, before Finish: its processed frame and the feature id of
+  // each of its keypoint rows (-1: a keypoint that is no feature). The source keeps nothing
+  // of it and must not be asked to register against it again (checked).
+  std::pair<ProcessedFrame, std::vector<int64_t>> TakeBaseFrame(int frame);
+  // A base frame that TakeBaseFrame can hand over.
+  bool HasBaseFrame(int frame) const {
+    return feature_ids_.count(frame) > 0 && processed_.count(frame) > 0;
+  }
 
   const SourceTimings& timings() const { return timings_; }
   // The processed frame (features and lifted points), processing it now if needed. A frame
@@ -111,6 +120,7 @@ class RgbdFrameSource : public FrameSource {
   int64_t next_feature_id_ = 0;
   int last_base_ = -1;
   bool finished_ = false;
+  bool handed_over_ = false;  // a base frame was taken (TakeBaseFrame)
   SourceTimings timings_;
 };
 

@@ -6,7 +6,7 @@ set -euo pipefail
 packages=(
   cmake g++ make pkg-config clang-format
   libceres-dev libeigen3-dev libopencv-dev libopengv-dev libflann-dev libsuitesparse-dev
-  libgtest-dev libbenchmark-dev
+  libgtest-dev libbenchmark-dev zlib1g-dev
   python3-matplotlib pybind11-dev python3-numpy python3-pytest
   snakemake slurm-wlm slurm-client munge time
 )

@@ -188,9 +188,49 @@ RunResult RunOnDataset(const Dataset& dataset, const RunOptions& options,
     map_built = true;
     return loaded;
   };
+  // The saved map's base frames, handed over by the source before it lets its frames go.
+  std::vector<MapBaseFrame> base_frames;
+  bool base_frames_complete = true;
+  if (used.save_map) {
+    pipeline_hooks.before_finish = [&](const SelectionResult& selection,
+                                       const InformationFilter& filter) {
+      if (hooks.before_finish) hooks.before_finish(selection, filter);
+      const auto start = std::chrono::steady_clock::now();
+      for (int frame : filter.frame_ids()) {
+        if (!source.HasBaseFrame(frame)) {
+          base_frames_complete = false;
+          break;
+        }
+      }
+      for (int frame : filter.frame_ids()) {
+        if (!base_frames_complete) break;
+        auto [processed, ids] = source.TakeBaseFrame(frame);
+        MapBaseFrame base;
+        base.frame = frame;
+        base.timestamp = dataset.info(frame).timestamp;
+        base.features = std::move(processed.features);
+        base.points = std::move(processed.points);
+        base.feature_ids = std::move(ids);
+        base_frames.push_back(std::move(base));
+      }
+      run.map_seconds += SecondsSince(start);
+    };
+  }
   run.setup_seconds = SecondsSince(run.started);
   run.pipeline = RunPipeline(&source, dataset.rig().colour, used.pipeline, pipeline_hooks, clouds);
   run.frontend = source.timings();
+  if (used.save_map && run.pipeline.has_estimate) {
+    if (base_frames_complete) {
+      const auto start = std::chrono::steady_clock::now();
+      run.saved_map =
+          MakeSavedMap(*run.pipeline.filter, run.pipeline.estimate, std::move(base_frames),
+                       run.pipeline.refinement ? &*run.pipeline.refinement : nullptr, dataset.rig(),
+                       ConfigYaml(used), used.dataset);
+      run.map_seconds += SecondsSince(start);
+    } else {
+      run.warnings.push_back("a keyframe's base frame is missing: map/map.bin is not written");
+    }
+  }
   const auto evaluation_start = std::chrono::steady_clock::now();
   CollectTrajectories(dataset, &run);
   run.evaluation_seconds = SecondsSince(evaluation_start);
@@ -203,7 +243,7 @@ RunResult RunOnDataset(const Dataset& dataset, const RunOptions& options,
     LoadSelectedFrames(dataset, run.pipeline.selection.selected, run.pipeline.T_w_c,
                        used.range_cloud, map_workers, &*run.map, nullptr, map_stop,
                        &run.stopped_after_selection, &run.warnings);
-    run.map_seconds = SecondsSince(map_start);
+    run.map_seconds += SecondsSince(map_start);
   }
   // A stop in the refinement or the map, where the selection no longer polls.
   if (!run.pipeline.selection.interrupted && hooks.stop && hooks.stop()) {

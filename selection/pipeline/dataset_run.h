@@ -20,6 +20,7 @@
 #include "frontend/rgbd_frame_source.h"
 #include "selection/pipeline/pipeline.h"
 #include "selection/pipeline/run_options.h"
+#include "selection/pipeline/saved_map.h"
 
 namespace ieslam {
 
@@ -36,6 +37,8 @@ struct RunResult {
   // Frames looked at and not placed: (index in the dataset, reason).
   std::vector<std::pair<int, std::string>> frames_skipped;
   std::optional<DenseMap> map;  // with options.build_map
+  // With options.save_map and a filter holding poses: what OUT/map/ holds.
+  std::optional<SavedMap> saved_map;
   // ATE RMSE against the ground truth as `ieslam evaluate` computes it from the written
   // files (the trajectories rounded as a TUM file holds them); < 0 where it cannot be
   // computed (no ground truth, fewer than 3 poses associated).
@@ -50,7 +53,8 @@ struct RunResult {
   std::chrono::steady_clock::time_point started;
   // Wall time on the caller's thread outside the pipeline's own stages: opening the frame
   // source, loading the selected frames' depth for the map after the pipeline (the pipeline's
-  // clouds_seconds holds the load it asked for), and the trajectories, ATE and consistency.
+  // clouds_seconds holds the load it asked for) and building the saved map (both in `map`),
+  // and the trajectories, ATE and consistency.
   double setup_seconds = 0.0;
   double map_seconds = 0.0;
   double evaluation_seconds = 0.0;

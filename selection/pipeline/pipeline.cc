@@ -43,6 +43,7 @@ PipelineResult RunPipeline(FrameSource* source, const PinholeCamera& camera,
       KeyframeSelector(options.selector)
           .Run(source, result.filter.get(), hooks.progress, hooks.stop, hooks.on_decision);
   result.selection_wall_seconds = SecondsSince(selection_start);
+  if (hooks.before_finish) hooks.before_finish(result.selection, *result.filter);
   source->Finish();
 #ifdef __GLIBC__
   // What the selection freed (processed frames, the descriptor database, SIFT's scratch in

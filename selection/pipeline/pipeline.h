@@ -51,6 +51,9 @@ struct PipelineHooks {
   // a refinement it interrupts, or that starts after it, is no refinement (its `failure`).
   std::function<bool()> stop;
   std::function<void(const SelectionDecision&)> on_decision;
+  // Once the selection is over, before the source lets go of its frames: what the caller
+  // wants of them (a saved map's base frames), with the filter that holds the selected poses.
+  std::function<void(const SelectionResult&, const InformationFilter&)> before_finish;
 };
 
 // The range clouds of the selected frames for the depth alignment: called once, after the

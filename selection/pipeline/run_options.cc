@@ -30,6 +30,8 @@ const OptionTable<RunOptions>& RunOptions::Table() {
         .Range(0, 256);
     t->Uint("seed", &O::seed, "seed of RANSAC and of FLANN's trees");
     t->Bool("write_map", &O::build_map, "build and write map.ply");
+    t->Bool("save_map", &O::save_map,
+            "write map/map.bin: base frames, features, poses and the filter, for later sessions");
     return t;
   }();
   return *table;

@@ -24,10 +24,11 @@ struct RunOptions {
   RangeCloudOptions range_cloud;
   DenseMapOptions map;
   bool build_map = true;
-  uint32_t seed = 1;  // RANSAC's and the base-frame database's
-  int threads = 0;    // 0: every core; 1: the deterministic single-thread mode
+  bool save_map = true;  // OUT/map/map.bin (selection/pipeline/saved_map.h)
+  uint32_t seed = 1;     // RANSAC's and the base-frame database's
+  int threads = 0;       // 0: every core; 1: the deterministic single-thread mode
 
-  // The run's own options (the top level of a config file: threads, seed, write_map).
+  // The run's own options (the top level of a config file: threads, seed, write_map, save_map).
   static const OptionTable<RunOptions>& Table();
   // Every section: dataset, features, matching, lifting, registration, database, source,
   // prefetch, selector, filter, map, ba, depth_alignment and the top level.

@@ -77,7 +77,7 @@ const std::vector<std::string>& RunOutputNames() {
   static const std::vector<std::string> names = {
       "keyframes.tum",  "trajectory.tum",         "selected_frames.txt", "groundtruth.tum",
       "ba_problem.txt", "information_blocks.txt", "refined.tum",         "map.ply",
-      "report.json",    "refine_report.json",     "refine_refined.tum"};
+      "report.json",    "refine_report.json",     "refine_refined.tum",  "map/map.bin"};
   return names;
 }
 
@@ -86,6 +86,8 @@ void WriteRunOutputs(const std::string& out, const Dataset& dataset, const RunOp
   const auto outputs_start = std::chrono::steady_clock::now();
   const PipelineResult& p = run.pipeline;
   RemoveStaleTempFiles(out, RunOutputNames());
+  const std::string map_dir = JoinPath(out, kMapDirectory);
+  RemoveStaleTempFiles(map_dir, {kMapFileName});
   // Files of the set this run does not write are an earlier run's only where one was: a
   // directory that held no run keeps them (they are the user's).
   const std::string marker = JoinPath(out, kRunOutputMarker);
@@ -100,6 +102,7 @@ void WriteRunOutputs(const std::string& out, const Dataset& dataset, const RunOp
   if (p.has_estimate) written.insert({"ba_problem.txt", "information_blocks.txt"});
   if (run.refined()) written.insert("refined.tum");
   if (run.map) written.insert("map.ply");
+  if (run.saved_map) written.insert(std::string(kMapDirectory) + "/" + kMapFileName);
   for (const std::string& name : RunOutputNames()) {
     if (earlier_run && !written.count(name)) RemoveOutput(JoinPath(out, name));
   }
@@ -124,6 +127,12 @@ void WriteRunOutputs(const std::string& out, const Dataset& dataset, const RunOp
                        "ieslam bundle-adjusted keyframes");
   }
   if (run.map) run.map->WritePly(JoinPath(out, "map.ply"));
+  if (run.saved_map) {
+    std::error_code ec;
+    std::filesystem::create_directories(map_dir, ec);
+    if (ec) throw OutputError("cannot create " + map_dir + ": " + ec.message());
+    WriteSavedMap(map_dir, *run.saved_map);
+  }
   Json report =
       RunReport(dataset, options, run, SecondsSince(run.started), SecondsSince(outputs_start));
   if (stop && stop()) report.Set("interrupted", true);

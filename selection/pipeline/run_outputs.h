@@ -1,7 +1,8 @@
 // The files of a run (the command-line interface's list): keyframes.tum, trajectory.tum,
 // selected_frames.txt, groundtruth.tum (with ground truth), ba_problem.txt and
 // information_blocks.txt (with a filter), refined.tum (with a refinement that did not fail),
-// map.ply (with a map) and report.json, each written atomically.
+// map.ply (with a map), map/map.bin (with a saved map) and report.json, each written
+// atomically.
 //
 // The set is consistent too: report.json, the set's commit point, is removed first and
 // written last, so that a set without it is one a run did not finish. Where the directory
