@@ -151,6 +151,55 @@ void CollectTrajectories(const Dataset& dataset, RunResult* run) {
   if (dataset.has_ground_truth()) run->ground_truth = dataset.GroundTruth();
 }
 
+// The saved map's base frames, as the source handed them over.
+struct TakenBaseFrames {
+  std::vector<MapBaseFrame> frames;  // one per filter pose, in the filter's order
+  bool complete = false;             // false: one was missing, and none was taken
+  double seconds = 0.0;
+};
+
+// The pipeline's before_finish hook: `next` (the caller's, when set), then the base frame of
+// each of the filter's poses moved out of `source` into *taken.
+std::function<void(const SelectionResult&, const InformationFilter&)> TakingBaseFrames(
+    const std::function<void(const SelectionResult&, const InformationFilter&)>& next,
+    const Dataset& dataset, RgbdFrameSource* source, TakenBaseFrames* taken) {
+  return [=, &dataset](const SelectionResult& selection, const InformationFilter& filter) {
+    if (next) next(selection, filter);
+    const auto start = std::chrono::steady_clock::now();
+    const std::vector<int>& frames = filter.frame_ids();
+    taken->complete = std::all_of(frames.begin(), frames.end(),
+                                  [&](int frame) { return source->HasBaseFrame(frame); });
+    for (int frame : frames) {
+      if (!taken->complete) break;
+      auto [processed, ids] = source->TakeBaseFrame(frame);
+      MapBaseFrame base;
+      base.frame = frame;
+      base.timestamp = dataset.info(frame).timestamp;
+      base.features = std::move(processed.features);
+      base.points = std::move(processed.points);
+      base.feature_ids = std::move(ids);
+      taken->frames.push_back(std::move(base));
+    }
+    taken->seconds = SecondsSince(start);
+  };
+}
+
+// run->saved_map from the base frames, or a warning when they are incomplete; its time and
+// the hand-over's in run->map_seconds.
+void SaveMap(const Dataset& dataset, const RunOptions& used, TakenBaseFrames taken,
+             RunResult* run) {
+  const auto start = std::chrono::steady_clock::now();
+  if (taken.complete) {
+    const PipelineResult& p = run->pipeline;
+    run->saved_map = MakeSavedMap(*p.filter, p.estimate, std::move(taken.frames),
+                                  p.refinement ? &*p.refinement : nullptr, dataset.rig(),
+                                  ConfigYaml(used), used.dataset);
+  } else {
+    run->warnings.push_back("a keyframe's base frame is missing: map/map.bin is not written");
+  }
+  run->map_seconds += taken.seconds + SecondsSince(start);
+}
+
 }  // namespace
 
 RunResult RunOnDataset(const Dataset& dataset, const RunOptions& options,
@@ -189,48 +238,14 @@ RunResult RunOnDataset(const Dataset& dataset, const RunOptions& options,
     return loaded;
   };
   // The saved map's base frames, handed over by the source before it lets its frames go.
-  std::vector<MapBaseFrame> base_frames;
-  bool base_frames_complete = true;
+  TakenBaseFrames taken;
   if (used.save_map) {
-    pipeline_hooks.before_finish = [&](const SelectionResult& selection,
-                                       const InformationFilter& filter) {
-      if (hooks.before_finish) hooks.before_finish(selection, filter);
-      const auto start = std::chrono::steady_clock::now();
-      for (int frame : filter.frame_ids()) {
-        if (!source.HasBaseFrame(frame)) {
-          base_frames_complete = false;
-          break;
-        }
-      }
-      for (int frame : filter.frame_ids()) {
-        if (!base_frames_complete) break;
-        auto [processed, ids] = source.TakeBaseFrame(frame);
-        MapBaseFrame base;
-        base.frame = frame;
-        base.timestamp = dataset.info(frame).timestamp;
-        base.features = std::move(processed.features);
-        base.points = std::move(processed.points);
-        base.feature_ids = std::move(ids);
-        base_frames.push_back(std::move(base));
-      }
-      run.map_seconds += SecondsSince(start);
-    };
+    pipeline_hooks.before_finish = TakingBaseFrames(hooks.before_finish, dataset, &source, &taken);
   }
   run.setup_seconds = SecondsSince(run.started);
   run.pipeline = RunPipeline(&source, dataset.rig().colour, used.pipeline, pipeline_hooks, clouds);
   run.frontend = source.timings();
-  if (used.save_map && run.pipeline.has_estimate) {
-    if (base_frames_complete) {
-      const auto start = std::chrono::steady_clock::now();
-      run.saved_map =
-          MakeSavedMap(*run.pipeline.filter, run.pipeline.estimate, std::move(base_frames),
-                       run.pipeline.refinement ? &*run.pipeline.refinement : nullptr, dataset.rig(),
-                       ConfigYaml(used), used.dataset);
-      run.map_seconds += SecondsSince(start);
-    } else {
-      run.warnings.push_back("a keyframe's base frame is missing: map/map.bin is not written");
-    }
-  }
+  if (used.save_map && run.pipeline.has_estimate) SaveMap(dataset, used, std::move(taken), &run);
   const auto evaluation_start = std::chrono::steady_clock::now();
   CollectTrajectories(dataset, &run);
   run.evaluation_seconds = SecondsSince(evaluation_start);
