@@ -200,6 +200,28 @@ void SaveMap(const Dataset& dataset, const RunOptions& used, TakenBaseFrames tak
   run->map_seconds += taken.seconds + SecondsSince(start);
 }
 
+// The ATE of the written trajectories and the stated covariances' consistency against the
+// dataset's ground truth (run->ground_truth), timed into run->evaluation_seconds.
+void EvaluateAgainstGroundTruth(RunResult* run) {
+  const auto ground_truth_start = std::chrono::steady_clock::now();
+  const Trajectory gt = AsReadBackFromTum(run->ground_truth, "groundtruth.tum");
+  run->ate_keyframes_m = Ate(gt, run->keyframes, "keyframes.tum", &run->warnings);
+  run->ate_trajectory_m = Ate(gt, run->trajectory, "trajectory.tum", &run->warnings);
+  if (run->refined()) {
+    run->ate_refined_m = Ate(gt, RefinedTrajectory(*run->pipeline.refinement, run->timestamps),
+                             "refined.tum", &run->warnings);
+  }
+  if (run->pipeline.has_estimate) {
+    run->consistency_filter =
+        Consistency(run->ground_truth, run->timestamps, run->pipeline.estimate);
+  }
+  if (run->refined()) {
+    run->consistency_refined = Consistency(run->ground_truth, run->timestamps,
+                                           SmootherEstimate(run->pipeline.refinement->refined()));
+  }
+  run->evaluation_seconds += SecondsSince(ground_truth_start);
+}
+
 }  // namespace
 
 RunResult RunOnDataset(const Dataset& dataset, const RunOptions& options,
@@ -268,24 +290,7 @@ RunResult RunOnDataset(const Dataset& dataset, const RunOptions& options,
     run.warnings.push_back("no refinement: " + run.pipeline.refinement->failure +
                            "; refined.tum is not written");
   }
-  if (dataset.has_ground_truth()) {
-    const auto ground_truth_start = std::chrono::steady_clock::now();
-    const Trajectory gt = AsReadBackFromTum(run.ground_truth, "groundtruth.tum");
-    run.ate_keyframes_m = Ate(gt, run.keyframes, "keyframes.tum", &run.warnings);
-    run.ate_trajectory_m = Ate(gt, run.trajectory, "trajectory.tum", &run.warnings);
-    if (run.refined()) {
-      run.ate_refined_m = Ate(gt, RefinedTrajectory(*run.pipeline.refinement, run.timestamps),
-                              "refined.tum", &run.warnings);
-    }
-    if (run.pipeline.has_estimate) {
-      run.consistency_filter = Consistency(run.ground_truth, run.timestamps, run.pipeline.estimate);
-    }
-    if (run.refined()) {
-      run.consistency_refined = Consistency(run.ground_truth, run.timestamps,
-                                            SmootherEstimate(run.pipeline.refinement->refined()));
-    }
-    run.evaluation_seconds += SecondsSince(ground_truth_start);
-  }
+  if (dataset.has_ground_truth()) EvaluateAgainstGroundTruth(&run);
   return run;
 }
 
