@@ -8,6 +8,8 @@ const std::vector<Command>& Commands() {
        RunCommand},
       {"refine", "bundle-adjust an earlier run's keyframes again (batch refinement)",
        RefineCommand},
+      {"localize", "place each frame of a dataset in a saved map (ieslam run's OUT/map)",
+       LocalizeCommand},
       {"evaluate", "TUM-compatible ATE / RPE of a trajectory against ground truth",
        EvaluateCommand},
       {"simulate", "the paper's simulation: Table I and filter consistency", SimulateCommand},

@@ -20,6 +20,7 @@ struct Command {
 const std::vector<Command>& Commands();
 
 int EvaluateCommand(const CommandArgs& args);
+int LocalizeCommand(const CommandArgs& args);
 int OptionsCommand(const CommandArgs& args);
 int RefineCommand(const CommandArgs& args);
 int RegisterCommand(const CommandArgs& args);

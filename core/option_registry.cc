@@ -37,7 +37,11 @@ std::string ReadConfigText(const std::string& path) {
 }  // namespace
 
 std::vector<YamlOption> ReadYamlOptions(const std::string& path) {
-  const cv::FileStorage fs = OpenYamlMap(ReadConfigText(path), path);
+  return ParseYamlOptions(ReadConfigText(path), path);
+}
+
+std::vector<YamlOption> ParseYamlOptions(const std::string& text, const std::string& path) {
+  const cv::FileStorage fs = OpenYamlMap(text, path);
   std::vector<YamlOption> options;
   for (const cv::FileNode& node : fs.root()) {
     const std::string name = node.name();

@@ -45,6 +45,8 @@ struct YamlOption {
   OptionText value;
 };
 std::vector<YamlOption> ReadYamlOptions(const std::string& path);
+// The same for a config file's text; `source` names it in errors.
+std::vector<YamlOption> ParseYamlOptions(const std::string& text, const std::string& source);
 
 // The YAML text of sections of `key: value  # help` lines.
 struct YamlLine {
@@ -147,7 +149,11 @@ class OptionRegistry {
 
   // Every option the file sets (ReadYamlOptions). An unknown section names the section.
   void ApplyYaml(const std::string& path, R* root) const {
-    for (const YamlOption& o : ReadYamlOptions(path)) {
+    ApplyOptions(ReadYamlOptions(path), path, root);
+  }
+  // Options read by ReadYamlOptions or ParseYamlOptions; `path` names their source in errors.
+  void ApplyOptions(const std::vector<YamlOption>& yaml, const std::string& path, R* root) const {
+    for (const YamlOption& o : yaml) {
       const bool known_section = o.section.empty() || std::any_of(options_.begin(), options_.end(),
                                                                   [&o](const BoundOption<R>& b) {
                                                                     return b.section == o.section;

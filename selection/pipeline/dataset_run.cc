@@ -194,6 +194,11 @@ void SaveMap(const Dataset& dataset, const RunOptions& used, TakenBaseFrames tak
     run->saved_map = MakeSavedMap(*p.filter, p.estimate, std::move(taken.frames),
                                   p.refinement ? &*p.refinement : nullptr, dataset.rig(),
                                   ConfigYaml(used), used.dataset);
+    for (MapKeyframe& k : run->saved_map->keyframes) {
+      const auto& gt = dataset.info(k.frame).T_w_c_gt;
+      k.has_ground_truth = gt.has_value();
+      if (gt) k.ground_truth = IsometryToPose(*gt);
+    }
   } else {
     run->warnings.push_back("a keyframe's base frame is missing: map/map.bin is not written");
   }

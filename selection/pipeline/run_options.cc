@@ -68,6 +68,8 @@ const OptionRegistry<RunOptions>& RunOptions::Registry() {
                                       [](RunOptions* o) { return &o->pipeline.depth_alignment; });
     r->Section<RangeCloudOptions>("depth_alignment", RangeCloudOptions::Table(),
                                   [](RunOptions* o) { return &o->range_cloud; });
+    r->Section<LocalizeOptions>("localize", LocalizeOptions::Table(),
+                                [](RunOptions* o) { return &o->localize; });
     r->Section<RunOptions>("", RunOptions::Table(), [](RunOptions* o) { return o; });
     r->Section<PipelineOptions>("", PipelineOptions::Table(),
                                 [](RunOptions* o) { return &o->pipeline; });

@@ -11,6 +11,7 @@
 #include "core/range_cloud.h"
 #include "frontend/dense_map.h"
 #include "frontend/rgbd_frame_source.h"
+#include "selection/pipeline/localization.h"
 #include "selection/pipeline/pipeline.h"
 
 namespace ieslam {
@@ -23,6 +24,7 @@ struct RunOptions {
   // With refine: the selected frames' range clouds, aligned in the refinement.
   RangeCloudOptions range_cloud;
   DenseMapOptions map;
+  LocalizeOptions localize;  // `ieslam localize` only
   bool build_map = true;
   bool save_map = true;  // OUT/map/map.bin (selection/pipeline/saved_map.h)
   uint32_t seed = 1;     // RANSAC's and the base-frame database's
@@ -31,7 +33,7 @@ struct RunOptions {
   // The run's own options (the top level of a config file: threads, seed, write_map, save_map).
   static const OptionTable<RunOptions>& Table();
   // Every section: dataset, features, matching, lifting, registration, database, source,
-  // prefetch, selector, filter, map, ba, depth_alignment and the top level.
+  // prefetch, selector, filter, map, ba, depth_alignment, localize and the top level.
   static const OptionRegistry<RunOptions>& Registry();
 
   bool Check(std::string* why) const;

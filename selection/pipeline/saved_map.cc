@@ -53,6 +53,8 @@ std::string WriteKeyframes(const SavedMap& map) {
     WriteMatrix(k.covariance, &w);
     w.U8(k.refined ? 1 : 0);
     WriteMatrix(k.refined_pose, &w);
+    w.U8(k.has_ground_truth ? 1 : 0);
+    WriteMatrix(k.ground_truth, &w);
   }
   return w.Take();
 }
@@ -146,7 +148,7 @@ void ReadMeta(SectionReader* r, SavedMap* map) {
 }
 
 void ReadKeyframes(SectionReader* r, SavedMap* map) {
-  const size_t n = r->Count(4 + 8 + 36 * 8 + 1 + 6 * 8 + 6 * 8);
+  const size_t n = r->Count(4 + 8 + 6 * 8 + 36 * 8 + 1 + 6 * 8 + 1 + 6 * 8);
   map->keyframes.resize(n);
   for (MapKeyframe& k : map->keyframes) {
     k.frame = r->I32();
@@ -155,6 +157,8 @@ void ReadKeyframes(SectionReader* r, SavedMap* map) {
     ReadMatrix(r, &k.covariance);
     k.refined = r->U8() != 0;
     ReadMatrix(r, &k.refined_pose);
+    k.has_ground_truth = r->U8() != 0;
+    ReadMatrix(r, &k.ground_truth);
   }
 }
 

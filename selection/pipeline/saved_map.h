@@ -30,7 +30,7 @@
 
 namespace ieslam {
 
-inline constexpr uint32_t kMapFormatVersion = 1;
+inline constexpr uint32_t kMapFormatVersion = 2;
 inline constexpr char kMapDirectory[] = "map";
 inline constexpr char kMapFileName[] = "map.bin";
 
@@ -51,6 +51,11 @@ struct MapKeyframe {
   Matrix6d covariance = Matrix6d::Zero();    // its marginal covariance
   bool refined = false;                      // the run was refined
   Vector6d refined_pose = Vector6d::Zero();  // the refinement's, when refined
+  // The mapping dataset's ground truth of the frame, when it has one (camera-to-world in the
+  // ground truth's frame): what places the map's frame in the ground truth's for a later
+  // localisation in it.
+  bool has_ground_truth = false;
+  Vector6d ground_truth = Vector6d::Zero();
 };
 
 struct MapFeature {

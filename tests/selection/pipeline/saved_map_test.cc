@@ -43,6 +43,8 @@ void ExpectSameMap(const SavedMap& a, const SavedMap& b) {
     EXPECT_TRUE(SameBits(x.pose, y.pose) && SameBits(x.covariance, y.covariance));
     EXPECT_EQ(x.refined, y.refined);
     EXPECT_TRUE(SameBits(x.refined_pose, y.refined_pose));
+    EXPECT_EQ(x.has_ground_truth, y.has_ground_truth);
+    EXPECT_TRUE(SameBits(x.ground_truth, y.ground_truth));
   }
   ASSERT_EQ(a.features.size(), b.features.size());
   for (size_t k = 0; k < a.features.size(); ++k) {
@@ -126,7 +128,7 @@ fs::path SavedMapTest::root_;
 Dataset* SavedMapTest::dataset_ = nullptr;
 RunResult* SavedMapTest::run_ = nullptr;
 
-TEST_F(SavedMapTest, HoldsTheFiltersEstimateAndTheRefinedPoses) {
+TEST_F(SavedMapTest, HoldsTheFiltersEstimateTheRefinedPosesAndTheGroundTruth) {
   const SavedMap& map = *run_->saved_map;
   const InformationFilter& filter = *run_->pipeline.filter;
   ASSERT_EQ(static_cast<int>(map.keyframes.size()), filter.num_poses());
@@ -138,6 +140,10 @@ TEST_F(SavedMapTest, HoldsTheFiltersEstimateAndTheRefinedPoses) {
     EXPECT_EQ(k.covariance, filter.PoseCovariance(k.frame));
     EXPECT_TRUE(k.refined);
     EXPECT_EQ(k.refined_pose, refined.poses.at(k.frame));
+    const auto& gt = dataset_->info(k.frame).T_w_c_gt;
+    ASSERT_TRUE(gt.has_value());
+    EXPECT_TRUE(k.has_ground_truth);
+    EXPECT_EQ(k.ground_truth, IsometryToPose(*gt));
   }
   ASSERT_EQ(static_cast<int>(map.features.size()), filter.num_features());
   for (const MapFeature& f : map.features) {

@@ -1,0 +1,136 @@
+// `ieslam localize`: frames placed in a saved map.
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <set>
+
+#include "apps/app_util.h"
+#include "apps/commands.h"
+#include "apps/interrupt.h"
+#include "apps/option_flags.h"
+#include "core/error.h"
+#include "core/file_util.h"
+#include "core/stopwatch.h"
+#include "selection/pipeline/localization.h"
+#include "selection/pipeline/localization_outputs.h"
+#include "selection/pipeline/run_options.h"
+#include "selection/pipeline/saved_map.h"
+
+namespace ieslam {
+namespace {
+
+const std::vector<OptionFlag>& LocalizeOptionFlags() {
+  static const std::vector<OptionFlag>* flags = new std::vector<OptionFlag>{
+      {"format", "dataset.format"}, {"calib", "dataset.calib"},   {"first", "dataset.first"},
+      {"last", "dataset.last"},     {"stride", "dataset.stride"}, {"seed", "seed"},
+      {"threads", "threads"}};
+  return *flags;
+}
+
+std::vector<FlagSpec> LocalizeFlagSpecs() {
+  std::vector<FlagSpec> specs = {
+      {"map", "DIR", "a run's map directory (OUT/map), or the run's OUT"},
+      {"dataset", "DIR", "dataset directory (TUM, 7-Scenes or pair layout)"},
+      {"output", "OUT", "output directory (required)"},
+      {"config", "FILE", "YAML with options over the map's own (ieslam options writes one)"},
+      {"quiet", "", "no progress output"}};
+  const std::vector<FlagSpec> options =
+      OptionFlagSpecs(RunOptions::Registry(), LocalizeOptionFlags());
+  specs.insert(specs.end(), options.begin(), options.end());
+  return specs;
+}
+
+// The directory holding map.bin: DIR itself, or DIR/map for a run's output directory.
+std::string MapDirectory(const std::string& dir) {
+  std::error_code ec;
+  if (!std::filesystem::exists(JoinPath(dir, kMapFileName), ec) &&
+      std::filesystem::exists(JoinPath(JoinPath(dir, kMapDirectory), kMapFileName), ec)) {
+    return JoinPath(dir, kMapDirectory);
+  }
+  return dir;
+}
+
+// The map's front-end options (its descriptors are only comparable with frames processed the
+// same way), then the config file over them, then the flags. The mapping run's frame range,
+// threads and selection do not carry over.
+RunOptions LocalizeOptionsFromFlags(const Flags& flags, const SavedMap& map,
+                                    const std::string& map_dir) {
+  static const std::set<std::string> kFrontEndSections = {"features", "lifting", "matching",
+                                                          "registration", "database"};
+  RunOptions options;
+  std::vector<YamlOption> from_map;
+  for (YamlOption& o : ParseYamlOptions(map.options, JoinPath(map_dir, kMapFileName))) {
+    if (kFrontEndSections.count(o.section) > 0) from_map.push_back(std::move(o));
+  }
+  RunOptions::Registry().ApplyOptions(from_map, JoinPath(map_dir, kMapFileName), &options);
+  if (flags.Has("config")) ApplyConfigFile(flags.Require("config"), &options);
+  options.dataset = flags.Require("dataset");
+  ApplyOptionFlags(flags, RunOptions::Registry(), LocalizeOptionFlags(), &options);
+  std::string why;
+  if (!options.Check(&why)) throw ConfigError(why);
+  return options;
+}
+
+}  // namespace
+
+int LocalizeCommand(const CommandArgs& args) {
+  const std::vector<FlagSpec> specs = LocalizeFlagSpecs();
+  const Flags flags(args, specs);
+  if (flags.help()) {
+    std::cout << FormatHelp("localize", "--map DIR --dataset DIR --output OUT [flags]",
+                            "Places each frame of a dataset in a saved map (ieslam run's\n"
+                            "OUT/map) and writes trajectory.tum (map frame), covariances.txt,\n"
+                            "groundtruth.tum (with ground truth, in the map frame) and\n"
+                            "report.json into OUT. The map is not changed.",
+                            specs);
+    return 0;
+  }
+  const std::string output = flags.Require("output");
+  const std::string map_dir = MapDirectory(flags.Require("map"));
+  const bool quiet = flags.Has("quiet");
+
+  const auto load_start = std::chrono::steady_clock::now();
+  const SavedMap map = ReadSavedMap(map_dir);
+  const double seconds_load_map = SecondsSince(load_start);
+  const RunOptions options = LocalizeOptionsFromFlags(flags, map, map_dir).Resolved();
+  const auto dataset = OpenDataset(options.dataset, options.dataset_options);
+  WarnAboutDataset("localize", *dataset);
+  CheckMapCalibration(map, dataset->rig(), map_dir);
+  PrepareOutputDirectory(output);
+
+  Progress progress("localize", dataset->size(), quiet);
+  LocalizeHooks hooks;
+  hooks.progress = [&progress](int done, int localized) {
+    progress.Update(done, std::to_string(localized) + " localised");
+  };
+  int exit_code = 0;
+  LocalizeResult result;
+  LocalizeEvaluation evaluation;
+  {
+    const StopOnInterrupt interrupt;
+    hooks.stop = interrupt.Poll();
+    result = LocalizeDataset(*dataset, map, options.source.frontend, options.source.database,
+                             options.source.prefetch, options.localize, hooks);
+    progress.Finish();
+    const MapFrameAlignment alignment = AlignMapToGroundTruth(map, result.refined_poses);
+    evaluation = WriteLocalizeOutputs(output, *dataset, map_dir, map, options, result, alignment,
+                                      seconds_load_map);
+    exit_code = result.interrupted ? interrupt.exit_code() : 0;
+  }
+  const int processed = static_cast<int>(result.frames.size());
+  std::printf("localize: %d of %d frames localised in the map of %zu keyframes (%d resumptions)\n",
+              result.localized, processed, map.keyframes.size(), result.resumptions);
+  if (evaluation.ok) {
+    std::printf("localize: ATE RMSE in the map frame %.4f m over %d frames with ground truth\n",
+                evaluation.ate_map_frame_m, evaluation.pairs);
+  }
+  std::printf("localize: results in %s\n", output.c_str());
+  if (exit_code != 0) {
+    std::fprintf(stderr, "localize: interrupted after %d of %d frames; outputs cover those\n",
+                 processed, dataset->size());
+  }
+  return exit_code;
+}
+
+}  // namespace ieslam
