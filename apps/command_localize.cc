@@ -1,9 +1,7 @@
 // `ieslam localize`: frames placed in a saved map.
 #include <chrono>
 #include <cstdio>
-#include <filesystem>
 #include <iostream>
-#include <set>
 
 #include "apps/app_util.h"
 #include "apps/commands.h"
@@ -18,7 +16,6 @@
 #include "selection/pipeline/saved_map.h"
 
 namespace ieslam {
-namespace {
 
 const std::vector<OptionFlag>& LocalizeOptionFlags() {
   static const std::vector<OptionFlag>* flags = new std::vector<OptionFlag>{
@@ -27,6 +24,8 @@ const std::vector<OptionFlag>& LocalizeOptionFlags() {
       {"threads", "threads"}};
   return *flags;
 }
+
+namespace {
 
 std::vector<FlagSpec> LocalizeFlagSpecs() {
   std::vector<FlagSpec> specs = {
@@ -41,29 +40,11 @@ std::vector<FlagSpec> LocalizeFlagSpecs() {
   return specs;
 }
 
-// The directory holding map.bin: DIR itself, or DIR/map for a run's output directory.
-std::string MapDirectory(const std::string& dir) {
-  std::error_code ec;
-  if (!std::filesystem::exists(JoinPath(dir, kMapFileName), ec) &&
-      std::filesystem::exists(JoinPath(JoinPath(dir, kMapDirectory), kMapFileName), ec)) {
-    return JoinPath(dir, kMapDirectory);
-  }
-  return dir;
-}
-
-// The map's front-end options (its descriptors are only comparable with frames processed the
-// same way), then the config file over them, then the flags. The mapping run's frame range,
-// threads and selection do not carry over.
+// The map's front-end options, then the config file over them, then the flags.
 RunOptions LocalizeOptionsFromFlags(const Flags& flags, const SavedMap& map,
                                     const std::string& map_dir) {
-  static const std::set<std::string> kFrontEndSections = {"features", "lifting", "matching",
-                                                          "registration", "database"};
   RunOptions options;
-  std::vector<YamlOption> from_map;
-  for (YamlOption& o : ParseYamlOptions(map.options, JoinPath(map_dir, kMapFileName))) {
-    if (kFrontEndSections.count(o.section) > 0) from_map.push_back(std::move(o));
-  }
-  RunOptions::Registry().ApplyOptions(from_map, JoinPath(map_dir, kMapFileName), &options);
+  ApplyMapFrontEndOptions(map.options, JoinPath(map_dir, kMapFileName), &options);
   if (flags.Has("config")) ApplyConfigFile(flags.Require("config"), &options);
   options.dataset = flags.Require("dataset");
   ApplyOptionFlags(flags, RunOptions::Registry(), LocalizeOptionFlags(), &options);
@@ -87,7 +68,7 @@ int LocalizeCommand(const CommandArgs& args) {
     return 0;
   }
   const std::string output = flags.Require("output");
-  const std::string map_dir = MapDirectory(flags.Require("map"));
+  const std::string map_dir = FindMapDirectory(flags.Require("map"));
   const bool quiet = flags.Has("quiet");
 
   const auto load_start = std::chrono::steady_clock::now();

@@ -22,6 +22,8 @@ struct OptionFlag {
 // The flags of `ieslam run` and of `ieslam evaluate` that set options, and the options
 // `ieslam evaluate` reads: the Python module's keyword arguments set the same options.
 const std::vector<OptionFlag>& RunOptionFlags();
+// The flags of `ieslam localize` that set options (the Python module's localize keywords).
+const std::vector<OptionFlag>& LocalizeOptionFlags();
 const std::vector<OptionFlag>& EvaluateOptionFlags();
 const OptionRegistry<EvaluationOptions>& EvaluationRegistry();
 

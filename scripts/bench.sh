@@ -21,6 +21,10 @@
 #             for the peak resident memory
 #   simulate  `ieslam simulate --buffers 3` (once; SIM_REPEAT for more): the Table I time
 #             and dimension ratios
+#   maps      `ieslam run` on the first half of 7scenes-dev (frames 0-249) and of
+#             tum-fr1-rpy-300 (0-149), then `ieslam localize` of the second half in that map
+#             (REPEAT times, under /usr/bin/time -v): localised share, ATE in the map frame,
+#             real-time factor, map load time
 #   scale     (not with --quick) `ieslam run` on tum-fr1-rpy-300 and on `ieslam synth
 #             --frames 600/2000 --seed 5`, default threads and --threads 1: real-time factor
 #             (30 Hz), last-to-first quarter cost per frame, peak RSS and its growth per
@@ -107,6 +111,21 @@ for r in $(seq "${SIM_REPEAT:-1}"); do
   "$ieslam" simulate --output "$out/simulate" --runs 1 --buffers 3 --quiet > /dev/null
   cp "$out/simulate/report.json" "$out/simulate_report_$r.json"
 done
+
+# Maps: the first half of a sequence mapped, the second half localised in that map.
+echo "== maps" >&2
+map_case() {  # NAME DATASET LAST_MAPPED_FRAME
+  local name=$1 dataset=$2 last=$3
+  "$ieslam" run --dataset "$dataset" --last "$last" --output "$out/map_$name" --quiet > /dev/null
+  for r in $(seq "$repeat"); do
+    /usr/bin/time -v "$ieslam" localize --map "$out/map_$name" --dataset "$dataset" \
+      --first $((last + 1)) --output "$out/localize_$name" --quiet \
+      2> "$out/localize_${name}_time_$r.txt" > /dev/null
+    cp "$out/localize_$name/report.json" "$out/localize_${name}_report_$r.json"
+  done
+}
+map_case 7scenes "$data/7scenes-dev" 249
+map_case rpy "$data/tum-fr1-rpy-300" 149
 
 # Scale: real-time factors on the real data and long synthetic sequences, both thread
 # modes, the cost per frame over the run, peak memory and its growth per frame, the

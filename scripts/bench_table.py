@@ -165,6 +165,25 @@ def scale(out):
     return {"runs": runs, "kb_per_non_keyframe": kb_per_frame, "simulate_exact": exact_ratios}
 
 
+def localize(out, name):
+    """Medians over the repetitions of `ieslam localize` in a map of the sequence's first half."""
+    reports = [json.load(open(p)) for p in
+               sorted(glob.glob(os.path.join(out, "localize_%s_report_*.json" % name)))]
+    if not reports:
+        return None
+    walls = [time_v(p)[0] for p in
+             sorted(glob.glob(os.path.join(out, "localize_%s_time_*.txt" % name)))]
+    frames = reports[0]["frames_processed"]
+    ate = [r.get("ate_rmse_m") or {} for r in reports]
+    return {"frames": frames, "map_keyframes": reports[0]["map"]["keyframes"],
+            "localized_share": median(r["localized_share"] for r in reports),
+            "localized_by_map_share": median(r["localized_by_map_share"] for r in reports),
+            "ate_map_frame_m": median(a.get("map_frame", float("nan")) for a in ate),
+            "ate_aligned_m": median(a.get("aligned", float("nan")) for a in ate),
+            "wall_s": median(walls), "realtime_factor": frames / FPS / median(walls),
+            "load_map_s": median(r["seconds"]["load_map"] for r in reports)}
+
+
 def fmt(value, digits=3):
     if value is None:
         return "–"
@@ -196,6 +215,7 @@ def main():
         "pipelined_over_sequential_wall": pipe["wall_s"] / seq["wall_s"],
         "pipelined_trajectory_identical": same,
         "simulate": sim, "scale": scale(out), "micro": micro,
+        "localize": {name: localize(out, name) for name in ("7scenes", "rpy")},
     }
     with open(os.path.join(out, "bench.json"), "w") as f:
         json.dump(summary, f, indent=2)
@@ -249,6 +269,20 @@ def main():
     row("simulate: frames used by info (buffer 3)", "%.0f of %.0f" % (sim["frames_used_info3"],
                                                                     sim["frames_total"]),
         "paper 163 of 300")
+    labels = {"7scenes": "7scenes-dev (map 0-249, localise 250-499)",
+              "rpy": "tum-fr1-rpy-300 (map 0-149, localise 150-299)"}
+    for name, label in labels.items():
+        loc = summary["localize"].get(name)
+        if loc is None:
+            continue
+        row("localize %s: share localised (by the map)" % label, "%.3f (%.3f)" % (
+            loc["localized_share"], loc["localized_by_map_share"]), "≥ 0.95")
+        row("localize %s: ATE in the map frame / aligned (cm)" % label, "%.2f / %.2f" % (
+            100 * loc["ate_map_frame_m"], 100 * loc["ate_aligned_m"]), "≤ 3.5")
+        row("localize %s: real-time factor (%d frames, wall %.1f s)" % (
+            label, loc["frames"], loc["wall_s"]), loc["realtime_factor"], "≥ 3.0", 2)
+        row("localize %s: map load s (%d keyframes)" % (label, loc["map_keyframes"]),
+            loc["load_map_s"], "≤ 1", 3)
     sc = summary["scale"]
     if sc:
         lines += ["", "Scale (one run each, `ieslam run` wall time from /usr/bin/time -v; real-time "

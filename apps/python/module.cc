@@ -22,9 +22,12 @@
 #include "backend/evaluation/evaluation.h"
 #include "backend/evaluation/evaluation_io.h"
 #include "core/error.h"
+#include "core/file_util.h"
 #include "core/stopwatch.h"
 #include "core/version.h"
 #include "selection/pipeline/dataset_run.h"
+#include "selection/pipeline/localization.h"
+#include "selection/pipeline/localization_outputs.h"
 #include "selection/pipeline/refinement.h"
 #include "selection/pipeline/run_outputs.h"
 #include "selection/pipeline/run_report.h"
@@ -88,7 +91,7 @@ void ApplyOverrides(const OptionRegistry<R>& registry, const std::vector<OptionF
 // the overrides, as `ieslam run`'s flags after its --config. Not checked as a whole (the
 // dataset is the caller's to set).
 void ApplyRunOptions(const py::object& options, const py::kwargs& overrides,
-                     RunOptions* run_options) {
+                     RunOptions* run_options, const std::string& command = "run") {
   if (py::isinstance<py::str>(options)) {
     ApplyConfigFile(options.cast<std::string>(), run_options);
   } else if (py::isinstance<py::dict>(options)) {
@@ -96,7 +99,9 @@ void ApplyRunOptions(const py::object& options, const py::kwargs& overrides,
   } else if (!options.is_none()) {
     throw ConfigError("options must be None, a dict or the path of a config file");
   }
-  ApplyOverrides(RunOptions::Registry(), RunOptionFlags(), overrides, "run", run_options);
+  ApplyOverrides(RunOptions::Registry(),
+                 command == "run" ? RunOptionFlags() : LocalizeOptionFlags(), overrides, command,
+                 run_options);
 }
 
 std::shared_ptr<PythonRun> Run(const std::string& dataset, const py::object& options,
@@ -117,6 +122,65 @@ std::shared_ptr<PythonRun> Run(const std::string& dataset, const py::object& opt
   }
   signals.RaiseIfStopped();
   return result;
+}
+
+// `ieslam localize` without its files: the map's front-end options, then `options`, then
+// the overrides (its flags).
+py::dict Localize(const std::string& map_arg, const std::string& dataset, const py::object& options,
+                  const py::kwargs& overrides) {
+  const std::string map_dir = FindMapDirectory(map_arg);
+  SavedMap map;
+  {
+    py::gil_scoped_release release;
+    map = ReadSavedMap(map_dir);
+  }
+  RunOptions run_options;
+  ApplyMapFrontEndOptions(map.options, JoinPath(map_dir, kMapFileName), &run_options);
+  ApplyRunOptions(options, overrides, &run_options, "localize");
+  run_options.dataset = dataset;
+  std::string why;
+  if (!run_options.Check(&why)) throw ConfigError(why);
+  const RunOptions used = run_options.Resolved();
+  SignalPoll signals;
+  std::unique_ptr<Dataset> data;
+  LocalizeResult result;
+  Json report;
+  {
+    py::gil_scoped_release release;
+    data = OpenDataset(dataset, used.dataset_options);
+    CheckMapCalibration(map, data->rig(), map_dir);
+    LocalizeHooks hooks;
+    hooks.stop = signals.Poll();
+    result = LocalizeDataset(*data, map, used.source.frontend, used.source.database,
+                             used.source.prefetch, used.localize, hooks);
+    const MapFrameAlignment alignment = AlignMapToGroundTruth(map, result.refined_poses);
+    report = LocalizeReport(*data, map_dir, map, used, result, alignment,
+                            EvaluateLocalization(*data, result, alignment), 0.0, 0.0);
+  }
+  signals.RaiseIfStopped();
+  Trajectory placed;
+  std::vector<std::string> how;
+  for (const LocalizedFrame& f : result.frames) {
+    how.push_back(!f.localized ? "no" : f.by_map ? "map" : "tracking");
+    if (f.localized) placed.push_back({f.timestamp, f.T_map_c});
+  }
+  py::array_t<double> covariances(
+      {static_cast<py::ssize_t>(placed.size()), py::ssize_t{6}, py::ssize_t{6}});
+  auto c = covariances.mutable_unchecked<3>();
+  py::ssize_t k = 0;
+  for (const LocalizedFrame& f : result.frames) {
+    if (!f.localized) continue;
+    for (int i = 0; i < 6; ++i) {
+      for (int j = 0; j < 6; ++j) c(k, i, j) = f.covariance(i, j);
+    }
+    ++k;
+  }
+  py::dict out;
+  out["trajectory"] = TrajectoryToArray(placed);
+  out["covariances"] = covariances;
+  out["placed"] = how;
+  out["report"] = JsonToPython(report);
+  return out;
 }
 
 py::dict ErrorStatsToDict(const ErrorStats& stats) {
@@ -365,6 +429,13 @@ void BindModule(py::module_& m) {
         "lists them) or a config file's path. Keyword arguments are the run's flags\n"
         "(threads=1, seed=3, refine=True, buffer=4, last=29, ...), applied after options.\n"
         "Raises ConfigError, DataError; KeyboardInterrupt on Ctrl-C.");
+  m.def("localize", &Localize, py::arg("map"), py::arg("dataset"), py::arg("options") = py::none(),
+        "Places each frame of a dataset in a saved map as `ieslam localize` does (map: a run's\n"
+        "output directory or its map/). options as run's, over the map's front-end options;\n"
+        "keyword arguments are localize's flags (threads=1, seed=3, first=250, ...). Returns\n"
+        "{'trajectory': N x 8 (t, position, quaternion) of the placed frames in the map frame,\n"
+        "'covariances': N x 6 x 6, 'placed': per frame 'map' | 'tracking' | 'no', 'report':\n"
+        "report.json's content}. Raises ConfigError, DataError; KeyboardInterrupt on Ctrl-C.");
   m.def("evaluate", &Evaluate, py::arg("gt"), py::arg("est"),
         "ATE and RPE as `ieslam evaluate`: gt and est are TUM files' paths or N x 8 arrays;\n"
         "keyword arguments are its flags (max_diff=, offset=, scale=, delta=, delta_unit=).\n"

@@ -1,6 +1,7 @@
 #include "selection/pipeline/run_options.h"
 
 #include <algorithm>
+#include <set>
 #include <thread>
 
 #include "core/error.h"
@@ -103,6 +104,17 @@ void ApplyConfigFile(const std::string& path, RunOptions* options) {
   RunOptions::Registry().ApplyYaml(path, options);
   std::string why;
   if (!RunOptions::Registry().Check(*options, &why)) throw ConfigError(path + ": " + why);
+}
+
+void ApplyMapFrontEndOptions(const std::string& config, const std::string& source,
+                             RunOptions* options) {
+  static const std::set<std::string> kFrontEnd = {"features", "lifting", "matching", "registration",
+                                                  "database"};
+  std::vector<YamlOption> front_end;
+  for (YamlOption& o : ParseYamlOptions(config, source)) {
+    if (kFrontEnd.count(o.section) > 0) front_end.push_back(std::move(o));
+  }
+  RunOptions::Registry().ApplyOptions(front_end, source, options);
 }
 
 std::string ConfigYaml(const RunOptions& options) {

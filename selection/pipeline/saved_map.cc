@@ -1,6 +1,7 @@
 #include "selection/pipeline/saved_map.h"
 
 #include <algorithm>
+#include <filesystem>
 #include <unordered_set>
 
 #include <glog/logging.h>
@@ -407,6 +408,15 @@ SavedMap ReadSavedMap(const std::string& dir) {
   }
   CheckConsistent(map, path);
   return map;
+}
+
+std::string FindMapDirectory(const std::string& dir) {
+  std::error_code ec;
+  if (!std::filesystem::exists(JoinPath(dir, kMapFileName), ec) &&
+      std::filesystem::exists(JoinPath(JoinPath(dir, kMapDirectory), kMapFileName), ec)) {
+    return JoinPath(dir, kMapDirectory);
+  }
+  return dir;
 }
 
 void CheckMapCalibration(const SavedMap& map, const Rig& rig, const std::string& dir) {

@@ -107,6 +107,10 @@ void WriteSavedMap(const std::string& dir, const SavedMap& map);
 // hold together (counts, offsets, ids, sizes).
 SavedMap ReadSavedMap(const std::string& dir);
 
+// The directory holding a map file: `dir` itself, or `dir`/map when `dir` is a run's output
+// directory (and holds no map file itself).
+std::string FindMapDirectory(const std::string& dir);
+
 // Throws DataError naming `dir`'s map file unless `map` was made with `rig`'s calibration (a
 // map made through other optics places nothing right).
 void CheckMapCalibration(const SavedMap& map, const Rig& rig, const std::string& dir);
