@@ -243,10 +243,12 @@ struct InformationFilter::Undo {
 
 InformationFilter::InformationFilter(const InformationFilterOptions& options,
                                      const PinholeCamera& camera)
-    : options_(Checked(options)), camera_(camera) {
+    : options_(Checked(options)), camera_(camera), factor_(NewFactor()) {}
+
+std::unique_ptr<InformationFactor> InformationFilter::NewFactor() const {
   const PoseSchurOptions dense = DenseFactorOptions(options_);
   const SparseCholeskyOptions sparse = SparseFactorOptions(options_);
-  factor_ = std::make_unique<DenseThenSparseFactor>(
+  return std::make_unique<DenseThenSparseFactor>(
       options_.max_dense_pose_dim, [dense]() { return MakePoseSchurInformationFactor(dense); },
       [sparse]() { return MakeSparseInformationFactor(sparse); });
 }

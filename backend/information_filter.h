@@ -20,6 +20,7 @@
 #include <mutex>
 #include <string>
 #include <unordered_map>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -136,6 +137,20 @@ struct InformationFilterTimings {
 // definite.
 void ValidateObservations(int frame_id, const std::vector<FeatureObservation>& observations);
 
+// The filter as it stands, for saving and restoring it: I's upper triangle in compressed
+// columns, i, the state, and each pose's and feature's offset in them, in the order they
+// were added (each pose after the features it brought).
+struct FilterSnapshot {
+  int dim = 0;
+  std::vector<int> column_starts;  // dim + 1
+  std::vector<int> rows;
+  std::vector<double> values;
+  Eigen::VectorXd information_vector;
+  Eigen::VectorXd state;
+  std::vector<std::pair<int, int>> pose_offsets;         // (frame id, offset)
+  std::vector<std::pair<int64_t, int>> feature_offsets;  // (feature id, offset)
+};
+
 class InformationFilter {
  public:
   InformationFilter(const InformationFilterOptions& options, const PinholeCamera& camera);
@@ -165,6 +180,16 @@ class InformationFilter {
   void set_defer_recovery(bool defer) { defer_recovery_ = defer; }
   void Recover();
   bool recovery_pending() const { return recovery_pending_; }
+
+  // The filter as it stands (recovered).
+  FilterSnapshot Snapshot() const;
+  // An empty filter takes `snapshot` over: the same matrix, information vector, state and
+  // variables, the matrix factored anew, so that later poses and queries go on as in the filter
+  // it was taken of (backend/information_filter_snapshot.cc). Throws DataError, naming what is
+  // wrong, when the snapshot does not hold together (sizes, a column that is not upper
+  // triangular with its diagonal block last, variables that do not tile the state as the
+  // filter lays it out) or its matrix is not positive definite.
+  void Restore(const FilterSnapshot& snapshot);
 
   bool HasPose(int frame_id) const { return pose_offset_.count(frame_id) > 0; }
   bool HasFeature(int64_t feature_id) const { return feature_offset_.count(feature_id) > 0; }
@@ -228,6 +253,9 @@ class InformationFilter {
   struct Linearization;
   struct ObservationJacobians;
   struct Undo;
+
+  // A factor of no matrix yet: the dense pose Schur complement, then the sparse one.
+  std::unique_ptr<InformationFactor> NewFactor() const;
 
   // One observation's Jacobians at T_w_c and its feature's linearisation point (a new
   // feature's from the observation, a known one's current estimate). False when that point

@@ -347,20 +347,7 @@ SavedMap MakeSavedMap(const InformationFilter& filter, const SlamEstimate& estim
   }
   map.base_frames = std::move(base_frames);
 
-  MapFilterState& state = map.filter;
-  const auto upper = filter.information_upper();
-  state.dim = filter.state_dim();
-  state.column_starts.assign(upper.outerIndexPtr(), upper.outerIndexPtr() + state.dim + 1);
-  state.rows.assign(upper.innerIndexPtr(), upper.innerIndexPtr() + upper.nonZeros());
-  state.values.assign(upper.valuePtr(), upper.valuePtr() + upper.nonZeros());
-  state.information_vector = filter.information_vector();
-  state.state = filter.state();
-  for (int frame : filter.frame_ids()) {
-    state.pose_offsets.emplace_back(frame, filter.StateIndex(VariableRef::Pose(frame)));
-  }
-  for (int64_t id : ids) {
-    state.feature_offsets.emplace_back(id, filter.StateIndex(VariableRef::Feature(id)));
-  }
+  map.filter = filter.Snapshot();
   return map;
 }
 

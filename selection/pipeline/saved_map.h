@@ -64,18 +64,8 @@ struct MapFeature {
   Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();  // its marginal covariance
 };
 
-// The filter as it stands: I's upper triangle in compressed columns, i, the state, and where
-// each pose and feature lies in them (in the order they were added).
-struct MapFilterState {
-  int dim = 0;
-  std::vector<int> column_starts;  // dim + 1
-  std::vector<int> rows;
-  std::vector<double> values;
-  Eigen::VectorXd information_vector;
-  Eigen::VectorXd state;
-  std::vector<std::pair<int, int>> pose_offsets;         // (frame id, offset)
-  std::vector<std::pair<int64_t, int>> feature_offsets;  // (feature id, offset)
-};
+// The filter as it stands (InformationFilter::Snapshot; Restore takes it over).
+using MapFilterState = FilterSnapshot;
 
 struct SavedMap {
   std::string version;                    // of the ieslam that wrote it

@@ -180,6 +180,25 @@ TEST_F(SavedMapTest, ReadsBackBitForBit) {
   ExpectSameMap(ReadSavedMap(MapDir().string()), *run_->saved_map);
 }
 
+// Save -> load -> a filter taken over from the map: the run's estimate, to the bit, and its
+// covariances.
+TEST_F(SavedMapTest, AFilterRestoredFromTheReadMapHoldsTheRunsEstimate) {
+  const SavedMap map = ReadSavedMap(MapDir().string());
+  const InformationFilter& filter = *run_->pipeline.filter;
+  InformationFilter restored(filter.options(), filter.camera());
+  restored.Restore(map.filter);
+  EXPECT_EQ(restored.frame_ids(), filter.frame_ids());
+  EXPECT_EQ(restored.feature_ids(), filter.feature_ids());
+  EXPECT_TRUE(restored.state() == filter.state());
+  for (int frame : filter.frame_ids()) {
+    EXPECT_EQ(restored.pose(frame), filter.pose(frame));
+    const Matrix6d a = filter.PoseCovariance(frame);
+    EXPECT_LT((restored.PoseCovariance(frame) - a).norm(), 1e-9 * a.norm()) << "frame " << frame;
+  }
+  EXPECT_NEAR(restored.LogDetInformation(), filter.LogDetInformation(),
+              1e-10 * std::abs(filter.LogDetInformation()));
+}
+
 TEST_F(SavedMapTest, EachKindOfBadMapIsRefusedNamingTheFileAndTheFault) {
   const std::string good = MapBytes();
   ASSERT_EQ(ErrorReading(good), "");
