@@ -32,7 +32,7 @@ std::vector<FlagSpec> LocalizeFlagSpecs() {
       {"map", "DIR", "a run's map directory (OUT/map), or the run's OUT"},
       {"dataset", "DIR", "dataset directory (TUM, 7-Scenes or pair layout)"},
       {"output", "OUT", "output directory (required)"},
-      {"config", "FILE", "YAML with options over the map's own (ieslam options writes one)"},
+      {"config", "FILE", "YAML over the map's own options: only the keys you change"},
       {"quiet", "", "no progress output"}};
   const std::vector<FlagSpec> options =
       OptionFlagSpecs(RunOptions::Registry(), LocalizeOptionFlags());
@@ -62,8 +62,12 @@ int LocalizeCommand(const CommandArgs& args) {
     std::cout << FormatHelp("localize", "--map DIR --dataset DIR --output OUT [flags]",
                             "Places each frame of a dataset in a saved map (ieslam run's\n"
                             "OUT/map) and writes trajectory.tum (map frame), covariances.txt,\n"
-                            "groundtruth.tum (with ground truth, in the map frame) and\n"
-                            "report.json into OUT. The map is not changed.",
+                            "frames.txt (how each frame was placed), groundtruth.tum (with\n"
+                            "ground truth, in the map frame) and report.json into OUT. The\n"
+                            "map is not changed. Frames are matched with the map's own\n"
+                            "front-end options; a --config file goes over them, so keep in it\n"
+                            "only the keys you change (ieslam options writes every key at its\n"
+                            "default).",
                             specs);
     return 0;
   }

@@ -2,6 +2,7 @@
 // and taken over by an empty filter.
 #include <algorithm>
 #include <map>
+#include <memory>
 #include <string>
 #include <unordered_map>
 #include <utility>
@@ -37,6 +38,10 @@ void CheckShape(const FilterSnapshot& s) {
     const int begin = s.column_starts[c], end = s.column_starts[c + 1];
     if (end <= begin || s.rows[end - 1] != c) {
       throw BadSnapshot("column " + std::to_string(c) + " does not end on its diagonal");
+    }
+    if (s.rows[begin] < 0) {
+      throw BadSnapshot("column " + std::to_string(c) + " has the negative row " +
+                        std::to_string(s.rows[begin]));
     }
     for (int k = begin + 1; k < end; ++k) {
       if (s.rows[k] <= s.rows[k - 1]) {
@@ -83,6 +88,40 @@ std::map<int, std::pair<bool, int>> CheckLayout(const FilterSnapshot& s) {
   return variables;
 }
 
+// The update the pose at `offset` made, from its columns of `matrix` (filled up to that pose's
+// last column): its diagonal block, its couplings, and the diagonal blocks of the features that
+// entered with it (those from `pose_end`, where the pose before ended, to `offset`).
+InformationUpdate PoseUpdate(const FilterSnapshot& s, const UpperColumnStorage& matrix,
+                             const std::vector<int>& feature_at, int offset, int pose_end) {
+  InformationUpdate update;
+  update.old_dim = pose_end;
+  update.pose_block = matrix.DiagonalBlock(offset, 6);
+  std::map<int, Eigen::Matrix<double, 6, 3>> couplings;
+  for (int j = 0; j < 6; ++j) {
+    for (int k = s.column_starts[offset + j]; k < s.column_starts[offset + j + 1]; ++k) {
+      const int row = s.rows[k];
+      if (row >= offset) break;
+      auto [it, added] = couplings.try_emplace(feature_at[row]);
+      if (added) it->second.setZero();
+      it->second(j, row - feature_at[row]) = s.values[k];
+    }
+  }
+  for (const auto& [feature, I_pf] : couplings) {
+    const bool is_new = feature >= pose_end;
+    update.observations.push_back(
+        {feature, is_new,
+         is_new ? Eigen::Matrix3d(matrix.DiagonalBlock(feature, 3)) : Eigen::Matrix3d::Zero(),
+         I_pf});
+  }
+  for (int f = pose_end; f < offset; f += 3) {
+    if (couplings.count(f) == 0) {
+      throw BadSnapshot("the feature at offset " + std::to_string(f) +
+                        " is not observed by the pose it entered with");
+    }
+  }
+  return update;
+}
+
 }  // namespace
 
 FilterSnapshot InformationFilter::Snapshot() const {
@@ -125,6 +164,9 @@ void InformationFilter::Restore(const FilterSnapshot& s) {
   // The matrix column by column; at each pose's last column the factor takes in the update
   // that pose made: its diagonal block, its couplings, and (all at once, as the new features
   // of that pose) the features' whole diagonal blocks, the sums the factor would have formed.
+  // Built aside and swapped in only when all of it holds, so that a refusal leaves the filter
+  // empty and ready for another snapshot.
+  std::unique_ptr<InformationFactor> factor = NewFactor();
   UpperColumnStorage matrix;
   int pose_end = 0;
   for (const auto& [offset, variable] : variables) {
@@ -141,39 +183,13 @@ void InformationFilter::Restore(const FilterSnapshot& s) {
       }
     }
     if (!variable.first) continue;
-    InformationUpdate update;
-    update.old_dim = pose_end;
-    update.pose_block = matrix.DiagonalBlock(offset, 6);
-    std::map<int, Eigen::Matrix<double, 6, 3>> couplings;
-    for (int j = 0; j < 6; ++j) {
-      for (int k = s.column_starts[offset + j]; k < s.column_starts[offset + j + 1]; ++k) {
-        const int row = s.rows[k];
-        if (row >= offset) break;
-        auto [it, added] = couplings.try_emplace(feature_at[row]);
-        if (added) it->second.setZero();
-        it->second(j, row - feature_at[row]) = s.values[k];
-      }
-    }
-    for (const auto& [feature, I_pf] : couplings) {
-      const bool is_new = feature >= pose_end;
-      update.observations.push_back(
-          {feature, is_new,
-           is_new ? Eigen::Matrix3d(matrix.DiagonalBlock(feature, 3)) : Eigen::Matrix3d::Zero(),
-           I_pf});
-    }
-    for (int f = pose_end; f < offset; f += 3) {
-      if (couplings.count(f) == 0) {
-        throw BadSnapshot("the feature at offset " + std::to_string(f) +
-                          " is not observed by the pose it entered with");
-      }
-    }
-    factor_->AddDeferred(matrix, update);
+    factor->AddDeferred(matrix, PoseUpdate(s, matrix, feature_at, offset, pose_end));
     pose_end = offset + 6;
   }
-  if (!factor_->Refactor(matrix)) {
-    factor_ = NewFactor();  // the filter stays empty
+  if (!factor->Refactor(matrix)) {
     throw BadSnapshot("its information matrix is not positive definite");
   }
+  factor_ = std::move(factor);
   matrix_ = std::move(matrix);
   info_vector_ = s.information_vector;
   state_ = s.state;

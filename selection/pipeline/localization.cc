@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <unordered_map>
 #include <utility>
 
 #include <glog/logging.h>
@@ -75,7 +76,7 @@ const OptionTable<LocalizeOptions>& LocalizeOptions::Table() {
            "inliers to the base frame that placed the frame before that spare the database")
         .Min(1);
     t->Int("max_tracked_frames", &O::max_tracked_frames,
-           "frames placed by tracking alone after the map last placed one (0: none)")
+           "frames, placed or not, after the map last placed one that tracking may place (0: none)")
         .Min(0);
     t->Bool("refined_poses", &O::refined_poses,
             "place frames against the map's refined keyframes when it has them");
@@ -90,11 +91,16 @@ MapLocalizer::MapLocalizer(const SavedMap& map, const FrontendOptions& frontend,
   std::string why;
   if (!frontend_.Check(&why) || !options_.Check(&why)) throw ConfigError(why);
   CHECK_EQ(map.base_frames.size(), map.keyframes.size());
-  int64_t max_id = -1;
-  for (const MapFeature& f : map.features) max_id = std::max(max_id, f.id);
-  feature_index_.assign(static_cast<size_t>(max_id + 1), -1);
+  std::unordered_map<int64_t, int> index_of;
   for (size_t i = 0; i < map.features.size(); ++i) {
-    feature_index_[static_cast<size_t>(map.features[i].id)] = static_cast<int>(i);
+    index_of.emplace(map.features[i].id, static_cast<int>(i));
+  }
+  base_feature_index_.resize(map.base_frames.size());
+  for (size_t b = 0; b < map.base_frames.size(); ++b) {
+    for (int64_t id : map.base_frames[b].feature_ids) {
+      const auto it = index_of.find(id);
+      base_feature_index_[b].push_back(it == index_of.end() ? -1 : it->second);
+    }
   }
   refined_ = options_.refined_poses && !map.keyframes.empty() &&
              std::all_of(map.keyframes.begin(), map.keyframes.end(),
@@ -172,10 +178,7 @@ void MapLocalizer::AddToPool(int base, const FrameRegistration& registration,
     e.row = m.query;
     e.map = !previous;
     const LiftedPoint& q = b.points[m.train];
-    const int64_t id = previous ? -1 : map_.base_frames[base].feature_ids[m.train];
-    const int f = id >= 0 && id < static_cast<int64_t>(feature_index_.size())
-                      ? feature_index_[static_cast<size_t>(id)]
-                      : -1;
+    const int f = previous ? -1 : base_feature_index_[base][m.train];
     e.feature = f >= 0;
     e.p_map = e.feature && !refined_ ? map_.features[f].p_w : T_map_b * q.p_c;
     e.cov_map = T_map_b.linear() * q.p_c_covariance * T_map_b.linear().transpose();
@@ -364,13 +367,15 @@ LocalizeResult LocalizeDataset(const Dataset& dataset, const SavedMap& map,
 
 MapFrameAlignment AlignMapToGroundTruth(const SavedMap& map, bool refined) {
   MapFrameAlignment out;
+  if (!map.keyframes.empty() && map.keyframes.front().has_ground_truth) {
+    const MapKeyframe& k = map.keyframes.front();
+    out.has_origin = true;
+    out.T_map_gt_origin = PoseToIsometry(refined ? k.refined_pose : k.pose) *
+                          PoseToIsometry(k.ground_truth).inverse();
+  }
   std::vector<Eigen::Vector3d> p_map, p_gt;
   for (const MapKeyframe& k : map.keyframes) {
     if (!k.has_ground_truth) continue;
-    if (p_map.empty()) {
-      out.T_map_gt_origin = PoseToIsometry(refined ? k.refined_pose : k.pose) *
-                            PoseToIsometry(k.ground_truth).inverse();
-    }
     p_map.push_back((refined ? k.refined_pose : k.pose).head<3>());
     p_gt.push_back(k.ground_truth.head<3>());
   }

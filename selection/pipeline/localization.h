@@ -55,8 +55,9 @@ struct LocalizeOptions {
   // did; with this many inliers the database's candidates are not tried (each costs an exact
   // match and RANSAC, and a pose from 50 spread inliers is already well determined).
   int track_inliers = 50;
-  // Frames placed by tracking alone after the map last placed one (3 s of 30 Hz data: the
-  // odometry of these sequences drifts by a few centimetres in that time); 0 turns tracking off.
+  // Frames, placed or not, after the map last placed one that tracking alone may place (3 s
+  // of 30 Hz data: the odometry of these sequences drifts by a few centimetres in that time);
+  // 0 turns tracking off.
   int max_tracked_frames = 90;
 
   // The options' registration: keys, help, checks (core/option_table.h).
@@ -93,7 +94,9 @@ class MapLocalizer {
   MapLocalizer& operator=(const MapLocalizer&) = delete;
 
   // The frame placed in the map, or why not (frame.localized false). A frame's placement
-  // depends on the frame before it only through the base frame that placed it.
+  // depends on the frames before it through the base frame that placed the last one (tried
+  // first), the last placed frame (pooled with the map's matches, and the anchor when tracked)
+  // and the count of frames tracked since the map last placed one.
   LocalizedFrame Localize(const ProcessedFrame& frame);
 
   // Whether frames are placed against the refined keyframes (LocalizeOptions::refined_poses).
@@ -136,7 +139,8 @@ class MapLocalizer {
   std::vector<ProcessedFrame> bases_;  // one per map keyframe
   bool refined_ = false;
   std::vector<Eigen::Isometry3d> base_poses_;  // the keyframes' poses frames are placed by
-  std::vector<int> feature_index_;             // feature id -> index into map_.features, or -1
+  // Per base frame and keypoint: the index into map_.features of the feature it observes, or -1.
+  std::vector<std::vector<int>> base_feature_index_;
   BaseFrameDatabase database_;
   int last_base_ = -1;  // the base keyframe that last placed a frame
   int since_map_ = 0;   // frames since the map last placed one
@@ -188,13 +192,17 @@ LocalizeResult LocalizeDataset(const Dataset& dataset, const SavedMap& map,
 // truth as the mapping run had it, so that localised frames are judged in the map's frame with
 // no alignment of their own (valid for a dataset whose ground truth shares the mapping
 // dataset's frame: the same recording, a motion-capture room, a synthetic scene). The
-// keyframes' refined poses are used when `refined` (those the frames were placed by).
+// keyframes' refined poses are used when `refined` (those the frames were placed by). The fit
+// uses the keyframes' positions alone, as the ATE does; over a map whose keyframes barely move
+// (a camera turning in place) its rotation is poorly determined, which `rmse_m` does not show.
 struct MapFrameAlignment {
   bool ok = false;
   std::string reason;  // why not, when !ok
   Eigen::Isometry3d T_map_gt = Eigen::Isometry3d::Identity();
-  // The same through the first keyframe alone, where the map's covariances have their origin
-  // (its pose is the map's gauge): what a stated covariance is judged against.
+  // The same through the map's first keyframe alone, where the map's covariances have their
+  // origin (its pose is the map's gauge): what a stated covariance is judged against. Only when
+  // that keyframe has ground truth (`has_origin`).
+  bool has_origin = false;
   Eigen::Isometry3d T_map_gt_origin = Eigen::Isometry3d::Identity();
   int keyframes = 0;    // map keyframes with ground truth
   double rmse_m = 0.0;  // the keyframes' residual after the fit

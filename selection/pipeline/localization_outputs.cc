@@ -57,6 +57,7 @@ LocalizeEvaluation EvaluateLocalization(const Dataset& dataset, const LocalizeRe
     p_est.push_back(f.T_map_c.translation());
     p_gt.push_back(p);
     errors.push_back(e.norm());
+    if (!alignment.has_origin) continue;
     // Against the covariance, the error where the map's covariances have their origin.
     const Eigen::Vector3d e0 =
         f.T_map_c.translation() - (alignment.T_map_gt_origin * *gt).translation();
@@ -77,13 +78,17 @@ LocalizeEvaluation EvaluateLocalization(const Dataset& dataset, const LocalizeRe
   out.ate_map_frame_m = s.rmse;
   out.median_m = s.median;
   out.max_m = s.max;
-  out.inside_2sigma = static_cast<double>(inside) / axes;
-  out.mean_position_nees = nees / static_cast<double>(errors.size());
+  if (axes > 0) {
+    out.has_consistency = true;
+    out.inside_2sigma = static_cast<double>(inside) / axes;
+    out.mean_position_nees = nees / static_cast<double>(axes / 3);
+  }
   if (p_est.size() >= 3) {
     const Eigen::Isometry3d T = AlignHorn(p_est, p_gt);
     double sum = 0.0;
     for (size_t i = 0; i < p_est.size(); ++i) sum += (T * p_est[i] - p_gt[i]).squaredNorm();
     out.ate_aligned_m = std::sqrt(sum / static_cast<double>(p_est.size()));
+    out.has_ate_aligned = true;
   }
   return out;
 }
@@ -132,11 +137,18 @@ Json LocalizeReport(const Dataset& dataset, const std::string& map_dir, const Sa
   if (evaluation.ok) {
     gt.Set("pairs", evaluation.pairs);
     Json& ate = report["ate_rmse_m"];
-    ate.Set("map_frame", evaluation.ate_map_frame_m).Set("aligned", evaluation.ate_aligned_m);
+    ate.Set("map_frame", evaluation.ate_map_frame_m);
+    if (evaluation.has_ate_aligned) ate.Set("aligned", evaluation.ate_aligned_m);
     gt.Set("median_m", evaluation.median_m).Set("max_m", evaluation.max_m);
     Json& c = report["consistency"];
-    c.Set("inside_2sigma", evaluation.inside_2sigma);
-    c.Set("mean_position_nees", evaluation.mean_position_nees);
+    if (evaluation.has_consistency) {
+      c.Set("inside_2sigma", evaluation.inside_2sigma);
+      c.Set("mean_position_nees", evaluation.mean_position_nees);
+    } else {
+      c.Set("none",
+            "the map's first keyframe has no ground truth, where its covariances have "
+            "their origin");
+    }
   } else {
     gt.Set("none", evaluation.reason);
   }

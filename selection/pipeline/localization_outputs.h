@@ -24,11 +24,14 @@ struct LocalizeEvaluation {
   std::string reason;  // why there is none, when !ok
   int pairs = 0;
   double ate_map_frame_m = 0.0;  // RMSE in the map's frame: the localisation's error
-  double ate_aligned_m = 0.0;    // RMSE after a Horn alignment of the localised frames alone
+  // RMSE after a Horn alignment of the localised frames alone; with 3 pairs or more.
+  bool has_ate_aligned = false;
+  double ate_aligned_m = 0.0;
   double median_m = 0.0, max_m = 0.0;
   // Against the stated covariances, with the ground truth through the map's first keyframe
-  // (MapFrameAlignment::T_map_gt_origin): the share of x, y, z errors inside +-2 sigma, and
-  // the mean position NEES (3 dof).
+  // (MapFrameAlignment::T_map_gt_origin, when it has ground truth): the share of x, y, z errors
+  // inside +-2 sigma, and the mean position NEES (3 dof).
+  bool has_consistency = false;
   double inside_2sigma = 0.0;
   double mean_position_nees = 0.0;
 };

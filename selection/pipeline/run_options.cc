@@ -108,8 +108,10 @@ void ApplyConfigFile(const std::string& path, RunOptions* options) {
 
 void ApplyMapFrontEndOptions(const std::string& config, const std::string& source,
                              RunOptions* options) {
-  static const std::set<std::string> kFrontEnd = {"features", "lifting", "matching", "registration",
-                                                  "database"};
+  // The source section too: its checks tie it to the registration's (a map made with a raised
+  // min_inliers also raised min_inliers_secondary).
+  static const std::set<std::string> kFrontEnd = {"features",     "lifting",  "matching",
+                                                  "registration", "database", "source"};
   std::vector<YamlOption> front_end;
   for (YamlOption& o : ParseYamlOptions(config, source)) {
     if (kFrontEnd.count(o.section) > 0) front_end.push_back(std::move(o));

@@ -278,6 +278,7 @@ void CheckConsistent(const SavedMap& map, const std::string& where) {
   std::unordered_set<int64_t> ids;
   for (size_t k = 0; k < f.feature_offsets.size(); ++k) {
     const int64_t id = f.feature_offsets[k].first;
+    if (id < 0) fail("feature " + std::to_string(id) + " has a negative id");
     if (map.features[k].id != id || !ids.insert(id).second) {
       fail("feature " + std::to_string(id) + " is listed twice or out of the filter's order");
     }

@@ -63,11 +63,10 @@ TEST_F(CommandLocalizeTest, PlacesTheMappedFramesAndWritesEveryFileTheSameTwice)
   // trajectory is in the map's frame, not re-aligned.
   std::ifstream keyframes(root_ / "run" / "keyframes.tum"), placed(root_ / "a" / "trajectory.tum");
   std::string line;
-  std::getline(keyframes, line);
-  std::getline(placed, line);
+  ASSERT_TRUE(std::getline(keyframes, line) && std::getline(placed, line));  // the headers
   double t0 = 0, x0 = 0, t1 = 0, x1 = 0;
-  keyframes >> t0 >> x0;
-  placed >> t1 >> x1;
+  ASSERT_TRUE(keyframes >> t0 >> x0) << "no keyframe line";
+  ASSERT_TRUE(placed >> t1 >> x1) << "no placed frame line";
   EXPECT_EQ(t0, t1);
   EXPECT_NEAR(x0, x1, 0.005);
 }

@@ -22,6 +22,31 @@ Vector6d Perturb(const Vector6d& pose, std::mt19937* rng) {
   return perturbed;
 }
 
+// `s` with the entries of columns [c0, c1) that lie in rows [r0, r1) removed, or with one entry
+// (r0, c0) of `value` added when `value` is not zero.
+FilterSnapshot Edited(FilterSnapshot s, int c0, int c1, int r0, int r1, double value = 0.0) {
+  std::vector<int> starts = {0}, rows;
+  std::vector<double> values;
+  for (int c = 0; c < s.dim; ++c) {
+    bool added = value == 0.0 || c != c0;
+    for (int k = s.column_starts[c]; k < s.column_starts[c + 1]; ++k) {
+      if (!added && s.rows[k] > r0) {
+        rows.push_back(r0);
+        values.push_back(value);
+        added = true;
+      }
+      if (value == 0.0 && c >= c0 && c < c1 && s.rows[k] >= r0 && s.rows[k] < r1) continue;
+      rows.push_back(s.rows[k]);
+      values.push_back(s.values[k]);
+    }
+    starts.push_back(static_cast<int>(rows.size()));
+  }
+  s.column_starts = starts;
+  s.rows = rows;
+  s.values = values;
+  return s;
+}
+
 // Filters of the first `poses` poses of a scene, on the dense pose Schur complement, the sparse
 // factor, and one that hands over from the first to the second within the poses restored.
 class InformationFilterSnapshotTest : public ::testing::TestWithParam<int> {
@@ -92,8 +117,8 @@ TEST_P(InformationFilterSnapshotTest, ASnapshotThatDoesNotHoldTogetherIsRefused)
   InformationFilter original(Options(), scene.camera);
   Fill(scene, 4, &rng, &original);
   const FilterSnapshot good = original.Snapshot();
-  const auto refused = [&](FilterSnapshot bad, const std::string& says) {
-    InformationFilter filter(Options(), scene.camera);
+  InformationFilter filter(Options(), scene.camera);
+  const auto refused = [&](const FilterSnapshot& bad, const std::string& says) {
     try {
       filter.Restore(bad);
       ADD_FAILURE() << "not refused: " << says;
@@ -111,13 +136,32 @@ TEST_P(InformationFilterSnapshotTest, ASnapshotThatDoesNotHoldTogetherIsRefused)
   refused(bad, "two variables at offset");
   bad = good;
   std::swap(bad.pose_offsets[0].second, bad.pose_offsets[1].second);
-  refused(bad, "");
+  refused(bad, "not in the order of their offsets");
   bad = good;
   bad.feature_offsets[2].first = bad.feature_offsets[1].first;
   refused(bad, "is there twice");
   bad = good;
+  int coupled = 0;  // the first column with an entry above its diagonal
+  while (good.column_starts[coupled + 1] - good.column_starts[coupled] < 2) ++coupled;
+  bad.rows[good.column_starts[coupled]] = -1;
+  refused(bad, "negative row");
+  bad = good;
   bad.values[bad.column_starts[1] - 1] = -1.0;  // the first feature's first diagonal entry
   refused(bad, "not positive definite");
+
+  // Refusals found while the factor is being built: a pose coupled with an earlier pose, and a
+  // feature its first pose does not see.
+  const int pose0 = good.pose_offsets[0].second, pose1 = good.pose_offsets[1].second;
+  refused(Edited(good, pose1, pose1 + 6, pose0, pose0, 0.5), "couples with row");
+  const int feature = good.feature_offsets[0].second;
+  refused(Edited(good, pose0, pose0 + 6, feature, feature + 3), "is not observed by the pose");
+
+  // Nothing of a refusal stays behind: the same filter then takes the good snapshot.
+  filter.Restore(good);
+  EXPECT_TRUE(filter.state() == original.state());
+  const int last = original.frame_ids().back();
+  EXPECT_LT((filter.PoseCovariance(last) - original.PoseCovariance(last)).norm(),
+            1e-9 * original.PoseCovariance(last).norm());
 }
 
 }  // namespace

@@ -111,7 +111,6 @@ TEST_F(LocalizationTest, PlacesASecondPassInTheMapFrameWithinItsStatedUncertaint
     EXPECT_TRUE(f.localized) << f.reason;
     EXPECT_GT(f.inliers, 30);
     EXPECT_GT(f.map_features, 0);
-    EXPECT_TRUE(f.covariance.isApprox(f.covariance.transpose()));
     EXPECT_GT(f.covariance.ldlt().vectorD().minCoeff(), 0.0);
   }
 }

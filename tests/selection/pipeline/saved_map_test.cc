@@ -240,6 +240,17 @@ TEST_F(SavedMapTest, EachKindOfBadMapIsRefusedNamingTheFileAndTheFault) {
     EXPECT_NE(std::string(e.what()).find("which the map does not hold"), std::string::npos)
         << e.what();
   }
+  map = *run_->saved_map;
+  map.features[0].id = -5;
+  map.filter.feature_offsets[0].first = -5;
+  WriteSavedMap(dir.string(), map);
+  try {
+    ReadSavedMap(dir.string());
+    FAIL() << "a negative feature id was read";
+  } catch (const DataError& e) {
+    EXPECT_NE(std::string(e.what()).find("feature -5 has a negative id"), std::string::npos)
+        << e.what();
+  }
   // Another calibration.
   Rig other = dataset_->rig();
   other.colour.fx += 1.0;
