@@ -95,6 +95,18 @@ void WarnAboutSkippedFrames(const std::string& command,
   }
 }
 
+RunOptions RunOptionsFromFlags(const Flags& flags, const std::vector<OptionFlag>& option_flags,
+                               const LoadedMap* map) {
+  RunOptions options;
+  if (map != nullptr) ApplyMapFrontEndOptions(map->map.options, map->file(), &options);
+  if (flags.Has("config")) ApplyConfigFile(flags.Require("config"), &options);
+  options.dataset = flags.Require("dataset");
+  ApplyOptionFlags(flags, RunOptions::Registry(), option_flags, &options);
+  std::string why;
+  if (!options.Check(&why)) throw ConfigError(why);
+  return options;
+}
+
 Progress::Progress(std::string label, int total, bool quiet)
     : label_(std::move(label)),
       total_(total),

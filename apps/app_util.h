@@ -7,7 +7,10 @@
 #include <vector>
 
 #include "apps/flags.h"
+#include "apps/option_flags.h"
 #include "core/dataset.h"
+#include "selection/pipeline/run_options.h"
+#include "selection/pipeline/saved_map.h"
 
 namespace ieslam {
 
@@ -18,6 +21,12 @@ void PrepareOutputDirectory(const std::string& path);
 // The flags shared by commands that read a dataset, and their parsing.
 std::vector<FlagSpec> DatasetFlagSpecs();
 DatasetOptions DatasetOptionsFromFlags(const Flags& flags);
+
+// The options of `ieslam run` or `localize`: a saved map's front-end options (when `map` is
+// set: its descriptors match only frames processed the same way), then the --config file, then
+// --dataset and the flags of `option_flags`. Throws ConfigError for options that do not check.
+RunOptions RunOptionsFromFlags(const Flags& flags, const std::vector<OptionFlag>& option_flags,
+                               const LoadedMap* map);
 
 // Progress on stderr: a redrawn bar when stderr is a terminal, otherwise a plain log line
 // at every 10%. Silent when quiet.

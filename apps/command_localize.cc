@@ -1,5 +1,4 @@
 // `ieslam localize`: frames placed in a saved map.
-#include <chrono>
 #include <cstdio>
 #include <iostream>
 
@@ -8,8 +7,6 @@
 #include "apps/interrupt.h"
 #include "apps/option_flags.h"
 #include "core/error.h"
-#include "core/file_util.h"
-#include "core/stopwatch.h"
 #include "selection/pipeline/localization.h"
 #include "selection/pipeline/localization_outputs.h"
 #include "selection/pipeline/run_options.h"
@@ -40,19 +37,6 @@ std::vector<FlagSpec> LocalizeFlagSpecs() {
   return specs;
 }
 
-// The map's front-end options, then the config file over them, then the flags.
-RunOptions LocalizeOptionsFromFlags(const Flags& flags, const SavedMap& map,
-                                    const std::string& map_dir) {
-  RunOptions options;
-  ApplyMapFrontEndOptions(map.options, JoinPath(map_dir, kMapFileName), &options);
-  if (flags.Has("config")) ApplyConfigFile(flags.Require("config"), &options);
-  options.dataset = flags.Require("dataset");
-  ApplyOptionFlags(flags, RunOptions::Registry(), LocalizeOptionFlags(), &options);
-  std::string why;
-  if (!options.Check(&why)) throw ConfigError(why);
-  return options;
-}
-
 }  // namespace
 
 int LocalizeCommand(const CommandArgs& args) {
@@ -72,13 +56,12 @@ int LocalizeCommand(const CommandArgs& args) {
     return 0;
   }
   const std::string output = flags.Require("output");
-  const std::string map_dir = FindMapDirectory(flags.Require("map"));
   const bool quiet = flags.Has("quiet");
 
-  const auto load_start = std::chrono::steady_clock::now();
-  const SavedMap map = ReadSavedMap(map_dir);
-  const double seconds_load_map = SecondsSince(load_start);
-  const RunOptions options = LocalizeOptionsFromFlags(flags, map, map_dir).Resolved();
+  const LoadedMap loaded = LoadMap(flags.Require("map"));
+  const SavedMap& map = loaded.map;
+  const std::string& map_dir = loaded.directory;
+  const RunOptions options = RunOptionsFromFlags(flags, LocalizeOptionFlags(), &loaded).Resolved();
   const auto dataset = OpenDataset(options.dataset, options.dataset_options);
   WarnAboutDataset("localize", *dataset);
   CheckMapCalibration(map, dataset->rig(), map_dir);
@@ -100,7 +83,7 @@ int LocalizeCommand(const CommandArgs& args) {
     progress.Finish();
     const MapFrameAlignment alignment = AlignMapToGroundTruth(map, result.refined_poses);
     evaluation = WriteLocalizeOutputs(output, *dataset, map_dir, map, options, result, alignment,
-                                      seconds_load_map);
+                                      loaded.load_seconds);
     exit_code = result.interrupted ? interrupt.exit_code() : 0;
   }
   const int processed = static_cast<int>(result.frames.size());

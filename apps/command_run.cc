@@ -2,6 +2,8 @@
 #include <cstdio>
 #include <functional>
 #include <iostream>
+#include <memory>
+#include <optional>
 
 #include "apps/app_util.h"
 #include "apps/commands.h"
@@ -34,6 +36,7 @@ std::vector<FlagSpec> RunFlagSpecs() {
       {"dataset", "DIR", "dataset directory (TUM, 7-Scenes or pair layout)"},
       {"output", "OUT", "output directory (required)"},
       {"config", "FILE", "YAML with the options of every stage (ieslam options writes one)"},
+      {"map", "DIR", "go on mapping from a saved map (a run's OUT/map, or its OUT)"},
       {"quiet", "", "no progress output"},
       {"verbose", "", "also log every selector decision (candidates, gains, frames added)"}};
   const std::vector<FlagSpec> options = OptionFlagSpecs(RunOptions::Registry(), RunOptionFlags());
@@ -41,19 +44,7 @@ std::vector<FlagSpec> RunFlagSpecs() {
   return specs;
 }
 
-// The config file first, then the flags over it.
-RunOptions RunOptionsFromFlags(const Flags& flags) {
-  RunOptions options;
-  if (flags.Has("config")) ApplyConfigFile(flags.Require("config"), &options);
-  options.dataset = flags.Require("dataset");
-  ApplyOptionFlags(flags, RunOptions::Registry(), RunOptionFlags(), &options);
-  std::string why;
-  if (!options.Check(&why)) throw ConfigError(why);
-  return options;
-}
-
-void PrintSummary(const Dataset& dataset, const RunOptions& options, const RunResult& run,
-                  const std::string& output) {
+void PrintSummary(const Dataset& dataset, const RunResult& run, const std::string& output) {
   const PipelineResult& p = run.pipeline;
   std::printf("run: %zu of %d frames selected, %zu skipped, state dimension %d\n",
               p.selection.selected.size(), dataset.size(), run.frames_skipped.size(),
@@ -78,15 +69,23 @@ int RunCommand(const CommandArgs& args) {
                             "Runs the SLAM pipeline on a dataset and writes keyframes.tum,\n"
                             "trajectory.tum, groundtruth.tum (with ground truth), map.ply,\n"
                             "map/map.bin (the map, for later sessions), selected_frames.txt\n"
-                            "and report.json into OUT.",
+                            "and report.json into OUT. With --map, mapping goes on from a saved\n"
+                            "map: its keyframes are frames 0..K-1 of the outputs, the dataset's\n"
+                            "frames follow, and OUT/map holds the map of both sessions; the\n"
+                            "map's front-end options are used, with a --config file over them.",
                             specs);
     return 0;
   }
   const std::string output = flags.Require("output");
   const bool quiet = flags.Has("quiet"), verbose = flags.Has("verbose");
   if (quiet && verbose) throw ConfigError("--quiet and --verbose exclude each other");
-  const RunOptions options = RunOptionsFromFlags(flags);
-  const auto dataset = OpenDataset(options.dataset, options.dataset_options);
+  std::optional<LoadedMap> map;
+  if (flags.Has("map")) map = LoadMap(flags.Require("map"));
+  const RunOptions options = RunOptionsFromFlags(flags, RunOptionFlags(), map ? &*map : nullptr);
+  const auto opened = OpenDataset(options.dataset, options.dataset_options);
+  std::unique_ptr<ContinuedDataset> continued;
+  if (map) continued = std::make_unique<ContinuedDataset>(*map, *opened, options.dataset_options);
+  const Dataset* dataset = continued ? continued.get() : opened.get();
   WarnAboutDataset("run", *dataset);
   PrepareOutputDirectory(output);
   Progress progress("run", dataset->size(), quiet);
@@ -95,7 +94,7 @@ int RunCommand(const CommandArgs& args) {
     progress.Update(done, std::to_string(selected) + " selected");
   };
   if (verbose) {
-    hooks.on_decision = [&dataset](const SelectionDecision& d) {
+    hooks.on_decision = [dataset](const SelectionDecision& d) {
       std::fprintf(stderr, "%s\n", DescribeDecision(d, *dataset).c_str());
     };
   }
@@ -106,7 +105,8 @@ int RunCommand(const CommandArgs& args) {
     // writes its outputs.
     const StopOnInterrupt interrupt;
     hooks.stop = interrupt.Poll();
-    run = RunOnDataset(*dataset, options, hooks);
+    run = continued ? ContinueMapping(*continued, options, hooks)
+                    : RunOnDataset(*dataset, options, hooks);
     progress.Finish();
     WarnAboutSkippedFrames("run", run.frames_skipped);
     for (const std::string& warning : run.warnings) PrintWarning("run", warning);
@@ -117,7 +117,7 @@ int RunCommand(const CommandArgs& args) {
     WriteRunOutputs(output, *dataset, options, run, [&] { return stopped_while_writing = poll(); });
     exit_code = run.interrupted() || stopped_while_writing ? interrupt.exit_code() : 0;
   }
-  PrintSummary(*dataset, options, run, output);
+  PrintSummary(*dataset, run, output);
   if (exit_code != 0) {
     std::fprintf(stderr, "run: interrupted after %d of %d frames; outputs cover those frames\n",
                  run.frames_processed(), dataset->size());

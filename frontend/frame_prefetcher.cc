@@ -26,8 +26,8 @@ const OptionTable<PrefetchOptions>& PrefetchOptions::Table() {
 }
 
 FramePrefetcher::FramePrefetcher(const Dataset& dataset, const FrameProcessor& processor,
-                                 const PrefetchOptions& options)
-    : dataset_(dataset), processor_(processor), options_(options) {
+                                 const PrefetchOptions& options, int first)
+    : dataset_(dataset), processor_(processor), options_(options), next_(first) {
   std::string why;
   if (!options.Check(&why)) throw ConfigError(why);
   for (int w = 0; w < options.workers; ++w) threads_.emplace_back([this] { WorkerLoop(); });

@@ -45,9 +45,9 @@ struct PrefetchedFrame {
 class FramePrefetcher {
  public:
   // `dataset` and `processor` must outlive the prefetcher and are only read (both are
-  // const and safe to share between threads).
+  // const and safe to share between threads). The workers start at frame `first`.
   FramePrefetcher(const Dataset& dataset, const FrameProcessor& processor,
-                  const PrefetchOptions& options);
+                  const PrefetchOptions& options, int first = 0);
   // Stops the workers; frames still in flight are finished and dropped.
   ~FramePrefetcher();
   FramePrefetcher(const FramePrefetcher&) = delete;

@@ -65,12 +65,13 @@ bool RgbdSourceOptions::Check(std::string* why) const {
          Table().Check(*this, why);
 }
 
-RgbdFrameSource::RgbdFrameSource(const Dataset& dataset, const RgbdSourceOptions& options)
+RgbdFrameSource::RgbdFrameSource(const Dataset& dataset, const RgbdSourceOptions& options,
+                                 int first_prepared)
     : dataset_(dataset),
       options_(options),
       processor_(dataset.rig(), options.frontend),
       database_(options.database),
-      prefetcher_(dataset, processor_, options.prefetch) {
+      prefetcher_(dataset, processor_, options.prefetch, first_prepared) {
   std::string why;
   if (!options.Check(&why)) throw ConfigError(why);
 }
@@ -271,6 +272,19 @@ void RgbdFrameSource::Commit(const CandidateFrame& candidate) {
   for (auto it = registrations_.begin(); it != registrations_.end();) {
     it = it->first.second <= candidate.frame ? registrations_.erase(it) : std::next(it);
   }
+}
+
+void RgbdFrameSource::AddBaseFrame(int frame, ProcessedFrame processed,
+                                   std::vector<int64_t> feature_ids) {
+  CHECK(!finished_ && !handed_over_ && pending_.empty() && registrations_.empty())
+      << "base frame " << frame << " added after frames were prepared";
+  CHECK_EQ(static_cast<int>(feature_ids.size()), processed.features.size());
+  CHECK(processed_.count(frame) == 0) << "frame " << frame << " is there already";
+  for (int64_t id : feature_ids) next_feature_id_ = std::max(next_feature_id_, id + 1);
+  if (processed.features.size() > 0) database_.Add(frame, processed.features.descriptors);
+  processed_.emplace(frame, std::move(processed));
+  feature_ids_.emplace(frame, std::move(feature_ids));
+  last_base_ = frame;
 }
 
 void RgbdFrameSource::Finish() {

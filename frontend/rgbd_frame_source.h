@@ -10,6 +10,7 @@
 // one position with different orientations are one feature, observed once.
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <map>
 #include <memory>
@@ -62,7 +63,9 @@ struct SourceTimings {
 
 class RgbdFrameSource : public FrameSource {
  public:
-  RgbdFrameSource(const Dataset& dataset, const RgbdSourceOptions& options);
+  // Frames before `first_prepared` are not loaded ahead: they are base frames to be added
+  // (AddBaseFrame), or frames nobody asks for.
+  RgbdFrameSource(const Dataset& dataset, const RgbdSourceOptions& options, int first_prepared = 0);
   ~RgbdFrameSource() override;
 
   int size() const override { return dataset_.size(); }
@@ -81,6 +84,14 @@ class RgbdFrameSource : public FrameSource {
   // each of its keypoint rows (-1: a keypoint that is no feature). The source keeps nothing
   // of it and must not be asked to register against it again (checked).
   std::pair<ProcessedFrame, std::vector<int64_t>> TakeBaseFrame(int frame);
+  // Takes `frame` as a base frame that entered the filter before this source existed (a saved
+  // map's, for mapping to go on from it): its processed frame and the feature id of each
+  // keypoint row (-1: no feature). New features get ids above every id seen. Before any
+  // frame is prepared, and once per frame (checked).
+  void AddBaseFrame(int frame, ProcessedFrame processed, std::vector<int64_t> feature_ids);
+  // New features get ids from `id` up at least (those below are taken: a saved map's
+  // features that no base-frame row names any more).
+  void ReserveFeatureIdsBelow(int64_t id) { next_feature_id_ = std::max(next_feature_id_, id); }
   // A base frame that TakeBaseFrame can hand over.
   bool HasBaseFrame(int frame) const {
     return feature_ids_.count(frame) > 0 && processed_.count(frame) > 0;

@@ -24,7 +24,8 @@
 #   maps      `ieslam run` on the first half of 7scenes-dev (frames 0-249) and of
 #             tum-fr1-rpy-300 (0-149), then `ieslam localize` of the second half in that map
 #             (REPEAT times, under /usr/bin/time -v): localised share, ATE in the map frame,
-#             real-time factor, map load time
+#             real-time factor, map load time; then (once) `ieslam run --map` over the
+#             second half and one run over the whole sequence: keyframe ATE of both
 #   scale     (not with --quick) `ieslam run` on tum-fr1-rpy-300 and on `ieslam synth
 #             --frames 600/2000 --seed 5`, default threads and --threads 1: real-time factor
 #             (30 Hz), last-to-first quarter cost per frame, peak RSS and its growth per
@@ -123,6 +124,9 @@ map_case() {  # NAME DATASET LAST_MAPPED_FRAME
       2> "$out/localize_${name}_time_$r.txt" > /dev/null
     cp "$out/localize_$name/report.json" "$out/localize_${name}_report_$r.json"
   done
+  "$ieslam" run --map "$out/map_$name" --dataset "$dataset" --first $((last + 1)) \
+    --output "$out/continue_$name" --quiet > /dev/null
+  "$ieslam" run --dataset "$dataset" --output "$out/single_$name" --quiet > /dev/null
 }
 map_case 7scenes "$data/7scenes-dev" 249
 map_case rpy "$data/tum-fr1-rpy-300" 149

@@ -184,6 +184,19 @@ def localize(out, name):
             "load_map_s": median(r["seconds"]["load_map"] for r in reports)}
 
 
+def continued(out, name):
+    """`ieslam run --map` over the second half against one run over the whole sequence."""
+    paths = [os.path.join(out, d, "report.json") for d in ("continue_" + name, "single_" + name)]
+    if not all(os.path.exists(p) for p in paths):
+        return None
+    c, s = (json.load(open(p)) for p in paths)
+    return {"keyframes": c["frames_selected"], "map_keyframes": c["continued_map"]["keyframes"],
+            "load_map_s": c["continued_map"]["load_seconds"],
+            "ate_keyframes_m": c.get("ate_rmse_m", {}).get("keyframes", float("nan")),
+            "single_keyframes": s["frames_selected"],
+            "single_ate_keyframes_m": s.get("ate_rmse_m", {}).get("keyframes", float("nan"))}
+
+
 def fmt(value, digits=3):
     if value is None:
         return "–"
@@ -216,6 +229,7 @@ def main():
         "pipelined_trajectory_identical": same,
         "simulate": sim, "scale": scale(out), "micro": micro,
         "localize": {name: localize(out, name) for name in ("7scenes", "rpy")},
+        "continued": {name: continued(out, name) for name in ("7scenes", "rpy")},
     }
     with open(os.path.join(out, "bench.json"), "w") as f:
         json.dump(summary, f, indent=2)
@@ -283,6 +297,15 @@ def main():
             label, loc["frames"], loc["wall_s"]), loc["realtime_factor"], "≥ 3.0", 2)
         row("localize %s: map load s (%d keyframes)" % (label, loc["map_keyframes"]),
             loc["load_map_s"], "≤ 1", 3)
+        con = summary["continued"].get(name)
+        if con is not None:
+            row("run --map %s: keyframe ATE (cm), %d keyframes (%d from the map) / one run, %d"
+                % (label.replace("localise", "map on"), con["keyframes"], con["map_keyframes"],
+                   con["single_keyframes"]),
+                "%.2f / %.2f" % (100 * con["ate_keyframes_m"], 100 * con["single_ate_keyframes_m"]),
+                "≤ one run")
+            row("run --map %s: map load s" % label.replace("localise", "map on"),
+                con["load_map_s"], "≤ 1", 3)
     sc = summary["scale"]
     if sc:
         lines += ["", "Scale (one run each, `ieslam run` wall time from /usr/bin/time -v; real-time "

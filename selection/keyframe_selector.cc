@@ -173,6 +173,21 @@ class Run {
     last_base_ = frame;
   }
 
+  // The frames the filter holds already, as if selected by this run.
+  void Resume(const SelectionResume& resume) {
+    CHECK_EQ(static_cast<int>(resume.selected.size()), filter_->num_poses());
+    for (const int frame : resume.selected) {
+      CHECK(frame >= 0 && frame < static_cast<int>(resume.selected.size()) &&
+            filter_->HasPose(frame))
+          << "resumed frame " << frame;
+      result_->selected.push_back(frame);
+      const auto it = resume.observations.find(frame);
+      if (it != resume.observations.end()) result_->observations[frame] = it->second;
+      result_->frames[frame].selected = result_->frames[frame].placed = true;
+    }
+    last_base_ = resume.selected.back();
+  }
+
   // Tries the dropped frames after the last base frame, most recent first, until one is
   // added. True when one was.
   bool Recover(int before) {
@@ -261,9 +276,9 @@ class Run {
     return c;
   }
 
-  void RunInfo() {
+  // From frame `next` on.
+  void RunInfo(int next) {
     const int n = source_->size();
-    int next = 1;
     while (next < n) {
       if (Stopped(next)) return;
       // Candidates: frames that change the view enough from the previous candidate (from the
@@ -329,12 +344,14 @@ class Run {
     }
   }
 
-  // all / interval: every frame (or every interval-th) that registers.
-  void RunEvery(int step) {
+  // all / interval: every frame (or every interval-th, counted from `origin`) that registers,
+  // after the frames the filter holds (those before `origin`, or frame 0).
+  void RunEvery(int step, int origin) {
     const int n = source_->size();
-    for (int f = 1; f < n; ++f) {
+    const int first = std::max(origin, 1);
+    for (int f = first; f < n; ++f) {
       if (Stopped(f)) return;
-      if (f % step != 0) continue;
+      if ((f - origin) % step != 0) continue;
       const CandidateFrame c = Prepare(f);
       if (Usable(c) && Add(c)) {
         Record(Added(f, step == 1 ? "all" : "interval"));
@@ -345,8 +362,8 @@ class Run {
     }
     // Frames between interval frames are placed by registration only.
     if (step > 1) {
-      for (int f = 1; f < n; ++f) {
-        if (f % step != 0) Prepare(f);
+      for (int f = first; f < n; ++f) {
+        if ((f - origin) % step != 0) Prepare(f);
       }
     }
   }
@@ -449,21 +466,29 @@ KeyframeSelector::KeyframeSelector(const SelectorOptions& options) : options_(op
 SelectionResult KeyframeSelector::Run(
     FrameSource* source, InformationFilter* filter, const std::function<void(int, int)>& progress,
     const std::function<bool()>& stop,
-    const std::function<void(const SelectionDecision&)>& on_decision) const {
-  QuarterClock quarters(source->size());
+    const std::function<void(const SelectionDecision&)>& on_decision,
+    const SelectionResume* resume) const {
+  if (resume != nullptr && options_.kind == SelectorKind::kDeadReckoning) {
+    throw ConfigError("mapping on from a saved map needs a filter: not with deadreckoning");
+  }
+  // The quarters are of the frames this run looks at.
+  const int first = resume != nullptr ? static_cast<int>(resume->selected.size()) : 0;
+  QuarterClock quarters(source->size() - first);
   const std::function<void(int, int)> timed = [&](int done, int selected) {
-    quarters.Reach(done);
+    quarters.Reach(done - first);
     if (progress) progress(done, selected);
   };
-  SelectionResult result = RunFrames(source, filter, timed, stop, on_decision);
-  result.seconds_per_frame_by_quarter = quarters.Finish(result.frames_processed);
+  SelectionResult result = RunFrames(source, filter, timed, stop, on_decision, resume);
+  result.seconds_per_frame_by_quarter =
+      quarters.Finish(std::max(0, result.frames_processed - first));
   return result;
 }
 
 SelectionResult KeyframeSelector::RunFrames(
     FrameSource* source, InformationFilter* filter, const std::function<void(int, int)>& progress,
     const std::function<bool()>& stop,
-    const std::function<void(const SelectionDecision&)>& on_decision) const {
+    const std::function<void(const SelectionDecision&)>& on_decision,
+    const SelectionResume* resume) const {
   SelectionResult result;
   const int n = source->size();
   result.frames_processed = n;
@@ -514,16 +539,22 @@ SelectionResult KeyframeSelector::RunFrames(
   run.progress_ = progress;
   run.stop_ = stop;
   run.on_decision_ = on_decision;
-  run.AddFirst(0);
+  // The run goes on after the frames the filter holds: frame 0, or the resumed ones.
+  const int origin = resume != nullptr ? static_cast<int>(resume->selected.size()) : 0;
+  if (resume != nullptr) {
+    run.Resume(*resume);
+  } else {
+    run.AddFirst(0);
+  }
   switch (options_.kind) {
     case SelectorKind::kInfo:
-      run.RunInfo();
+      run.RunInfo(std::max(origin, 1));
       break;
     case SelectorKind::kAll:
-      run.RunEvery(1);
+      run.RunEvery(1, origin);
       break;
     case SelectorKind::kInterval:
-      run.RunEvery(options_.interval);
+      run.RunEvery(options_.interval, origin);
       break;
     case SelectorKind::kDeadReckoning:
       break;

@@ -99,6 +99,15 @@ struct SelectionResult {
   GateStatistics gate;
 };
 
+// Where a selection goes on from (mapping continued from a saved map): the filter already
+// holds the poses of `selected`, which are the source's frames 0 .. selected.size() - 1 in
+// the order they entered the filter, and the source holds them as base frames. The run looks
+// at the frames after them; the result lists them as selected, with `observations`.
+struct SelectionResume {
+  std::vector<int> selected;
+  std::map<int, std::vector<FeatureObservation>> observations;
+};
+
 class KeyframeSelector {
  public:
   explicit KeyframeSelector(const SelectorOptions& options);
@@ -107,12 +116,14 @@ class KeyframeSelector {
   // dead reckoning). `progress`, if set, is called with (frames done, frames selected).
   // `stop`, if set, is polled between decisions; when it returns true the run ends there
   // (result.interrupted), with everything decided so far intact. `on_decision`, if set, sees
-  // each decision as it is made (not for dead reckoning, which decides nothing).
-  SelectionResult Run(
-      FrameSource* source, InformationFilter* filter,
-      const std::function<void(int, int)>& progress = nullptr,
-      const std::function<bool()>& stop = nullptr,
-      const std::function<void(const SelectionDecision&)>& on_decision = nullptr) const;
+  // each decision as it is made (not for dead reckoning, which decides nothing). With
+  // `resume`, the run goes on from the poses the filter holds (see SelectionResume; not for
+  // dead reckoning: ConfigError).
+  SelectionResult Run(FrameSource* source, InformationFilter* filter,
+                      const std::function<void(int, int)>& progress = nullptr,
+                      const std::function<bool()>& stop = nullptr,
+                      const std::function<void(const SelectionDecision&)>& on_decision = nullptr,
+                      const SelectionResume* resume = nullptr) const;
 
   // The pose of every placed frame: the filter's estimate for selected frames, the base
   // frame's estimate composed with the registration for the others (dead reckoning: the
@@ -124,7 +135,8 @@ class KeyframeSelector {
   SelectionResult RunFrames(FrameSource* source, InformationFilter* filter,
                             const std::function<void(int, int)>& progress,
                             const std::function<bool()>& stop,
-                            const std::function<void(const SelectionDecision&)>& on_decision) const;
+                            const std::function<void(const SelectionDecision&)>& on_decision,
+                            const SelectionResume* resume) const;
 
   SelectorOptions options_;
 };

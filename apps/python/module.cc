@@ -40,6 +40,7 @@ namespace {
 
 // A finished run with what writing its files needs.
 struct PythonRun {
+  std::shared_ptr<const LoadedMap> map;  // mapped on from (the dataset refers to it), or null
   std::shared_ptr<const Dataset> dataset;
   RunOptions options;
   RunResult run;
@@ -104,9 +105,17 @@ void ApplyRunOptions(const py::object& options, const py::kwargs& overrides,
                  run_options);
 }
 
+// With `map` (a saved map's directory or its run's), mapping goes on from it as
+// `ieslam run --map` does: its front-end options first.
 std::shared_ptr<PythonRun> Run(const std::string& dataset, const py::object& options,
-                               const py::kwargs& overrides) {
+                               const py::object& map_arg, const py::kwargs& overrides) {
   auto result = std::make_shared<PythonRun>();
+  if (!map_arg.is_none()) {
+    const std::string path = map_arg.cast<std::string>();
+    py::gil_scoped_release release;
+    result->map = std::make_shared<const LoadedMap>(LoadMap(path));
+    ApplyMapFrontEndOptions(result->map->map.options, result->map->file(), &result->options);
+  }
   ApplyRunOptions(options, overrides, &result->options);
   result->options.dataset = dataset;
   std::string why;
@@ -114,10 +123,19 @@ std::shared_ptr<PythonRun> Run(const std::string& dataset, const py::object& opt
   SignalPoll signals;
   {
     py::gil_scoped_release release;
-    result->dataset = OpenDataset(dataset, result->options.dataset_options);
+    const std::shared_ptr<const Dataset> opened =
+        OpenDataset(dataset, result->options.dataset_options);
     PipelineHooks hooks;
     hooks.stop = signals.Poll();
-    result->run = RunOnDataset(*result->dataset, result->options, hooks);
+    if (result->map) {
+      auto continued = std::make_shared<const ContinuedDataset>(*result->map, *opened,
+                                                                result->options.dataset_options);
+      result->dataset = continued;
+      result->run = ContinueMapping(*continued, result->options, hooks);
+    } else {
+      result->dataset = opened;
+      result->run = RunOnDataset(*result->dataset, result->options, hooks);
+    }
     result->total_seconds = SecondsSince(result->run.started);
   }
   signals.RaiseIfStopped();
@@ -128,14 +146,15 @@ std::shared_ptr<PythonRun> Run(const std::string& dataset, const py::object& opt
 // the overrides (its flags).
 py::dict Localize(const std::string& map_arg, const std::string& dataset, const py::object& options,
                   const py::kwargs& overrides) {
-  const std::string map_dir = FindMapDirectory(map_arg);
-  SavedMap map;
+  LoadedMap loaded;
   {
     py::gil_scoped_release release;
-    map = ReadSavedMap(map_dir);
+    loaded = LoadMap(map_arg);
   }
+  const SavedMap& map = loaded.map;
+  const std::string& map_dir = loaded.directory;
   RunOptions run_options;
-  ApplyMapFrontEndOptions(map.options, JoinPath(map_dir, kMapFileName), &run_options);
+  ApplyMapFrontEndOptions(map.options, loaded.file(), &run_options);
   ApplyRunOptions(options, overrides, &run_options, "localize");
   run_options.dataset = dataset;
   std::string why;
@@ -154,8 +173,9 @@ py::dict Localize(const std::string& map_arg, const std::string& dataset, const 
     result = LocalizeDataset(*data, map, used.source.frontend, used.source.database,
                              used.source.prefetch, used.localize, hooks);
     const MapFrameAlignment alignment = AlignMapToGroundTruth(map, result.refined_poses);
-    report = LocalizeReport(*data, map_dir, map, used, result, alignment,
-                            EvaluateLocalization(*data, result, alignment), 0.0, 0.0);
+    report =
+        LocalizeReport(*data, map_dir, map, used, result, alignment,
+                       EvaluateLocalization(*data, result, alignment), loaded.load_seconds, 0.0);
   }
   signals.RaiseIfStopped();
   Trajectory placed;
@@ -424,11 +444,13 @@ void BindModule(py::module_& m) {
       });
 
   m.def("run", &Run, py::arg("dataset"), py::arg("options") = py::none(),
+        py::arg("map") = py::none(),
         "Runs the pipeline on a dataset as `ieslam run` does. options: None, a dict of the\n"
         "registry's sections ({'selector': {'buffer': 4}, 'threads': 1}; `ieslam options`\n"
-        "lists them) or a config file's path. Keyword arguments are the run's flags\n"
-        "(threads=1, seed=3, refine=True, buffer=4, last=29, ...), applied after options.\n"
-        "Raises ConfigError, DataError; KeyboardInterrupt on Ctrl-C.");
+        "lists them) or a config file's path. map: a saved map to go on mapping from, as\n"
+        "`ieslam run --map` (a run's output directory or its map/). Keyword arguments are the\n"
+        "run's flags (threads=1, seed=3, refine=True, buffer=4, last=29, ...), applied after\n"
+        "options. Raises ConfigError, DataError; KeyboardInterrupt on Ctrl-C.");
   m.def("localize", &Localize, py::arg("map"), py::arg("dataset"), py::arg("options") = py::none(),
         "Places each frame of a dataset in a saved map as `ieslam localize` does (map: a run's\n"
         "output directory or its map/). options as run's, over the map's front-end options;\n"

@@ -76,23 +76,29 @@ LoadedFrame LoadFrame(const Dataset& dataset, int frame, const Eigen::Isometry3d
   return out;
 }
 
+// What a selected frame's images are for: "the map", "the depth alignment" or both.
+std::string FrameUses(bool map, bool alignment) {
+  return map && alignment ? "the map and the depth alignment"
+         : map            ? "the map"
+                          : "the depth alignment";
+}
+
 // Loads each of `frames` once into the dense map (at its pose in `T_w_c`) and, when `clouds`
 // is set, as a range cloud. A frame that cannot be loaded again, or whose range image gives
 // no cloud, is left out with a warning. Stops early, setting *stopped, once `stop` (when
 // set) says so. With workers > 0 that many threads load frames (decoding, points, clouds)
 // ahead of the caller, who adds them to the map in the given order: the same map as one
-// thread gives.
-void LoadSelectedFrames(const Dataset& dataset, const std::vector<int>& frames,
+// thread gives. Frames before `first_frame` (a saved map's keyframes) have no images at hand
+// and are left out.
+void LoadSelectedFrames(const Dataset& dataset, int first_frame, const std::vector<int>& frames,
                         const std::vector<std::optional<Eigen::Isometry3d>>& T_w_c,
                         const RangeCloudOptions& cloud_options, int workers, DenseMap* map,
                         RangeClouds* clouds, const std::function<bool()>& stop, bool* stopped,
                         std::vector<std::string>* warnings) {
-  const std::string uses = map != nullptr && clouds != nullptr ? "the map and the depth alignment"
-                           : map != nullptr                    ? "the map"
-                                                               : "the depth alignment";
+  const std::string uses = FrameUses(map != nullptr, clouds != nullptr);
   std::vector<int> placed;
   for (const int frame : frames) {
-    if (T_w_c[frame]) placed.push_back(frame);
+    if (frame >= first_frame && T_w_c[frame]) placed.push_back(frame);
   }
   if (placed.empty()) return;
   const RangeRays rays(dataset.rig().range);
@@ -192,9 +198,10 @@ void SaveMap(const Dataset& dataset, const RunOptions& used, TakenBaseFrames tak
   if (taken.complete) {
     const PipelineResult& p = run->pipeline;
     run->saved_map = MakeSavedMap(*p.filter, p.estimate, std::move(taken.frames),
-                                  p.refinement ? &*p.refinement : nullptr, dataset.rig(),
-                                  ConfigYaml(used), used.dataset);
+                                  p.selection.observations, p.refinement ? &*p.refinement : nullptr,
+                                  dataset.rig(), ConfigYaml(used), used.dataset);
     for (MapKeyframe& k : run->saved_map->keyframes) {
+      k.source_index = dataset.info(k.frame).source_index;
       const auto& gt = dataset.info(k.frame).T_w_c_gt;
       k.has_ground_truth = gt.has_value();
       if (gt) k.ground_truth = IsometryToPose(*gt);
@@ -227,10 +234,27 @@ void EvaluateAgainstGroundTruth(RunResult* run) {
   run->evaluation_seconds += SecondsSince(ground_truth_start);
 }
 
-}  // namespace
+// Going on from `continued`'s map: its keyframes into `source` as base frames, the map's
+// frames and file in *run (with a warning where their images would be needed), and what the
+// pipeline resumes from.
+PipelineResume StartFromMap(const ContinuedDataset& continued, const RunOptions& used,
+                            RgbdFrameSource* source, RunResult* run) {
+  continued.AddBaseFrames(source);
+  run->map_frames = continued.map_frames();
+  run->continued_map_file = continued.map().file();
+  run->map_load_seconds = continued.map().load_seconds;
+  const bool align = used.pipeline.refine && used.pipeline.depth_alignment.rounds > 0;
+  if (used.build_map || align) {
+    run->warnings.push_back("the saved map's " + std::to_string(run->map_frames) +
+                            " keyframes are left out of " + FrameUses(used.build_map, align) +
+                            ": their images are not at hand");
+  }
+  return continued.Resume();
+}
 
-RunResult RunOnDataset(const Dataset& dataset, const RunOptions& options,
-                       const PipelineHooks& hooks) {
+// RunOnDataset, or with `continued` (which is `dataset`) ContinueMapping.
+RunResult Run(const Dataset& dataset, const RunOptions& options, const PipelineHooks& hooks,
+              const ContinuedDataset* continued) {
   std::string why;
   if (!options.Check(&why)) throw ConfigError(why);
   RunResult run;
@@ -238,7 +262,9 @@ RunResult RunOnDataset(const Dataset& dataset, const RunOptions& options,
   // OpenCV's TBB back end warns on stderr when asked for more threads than there are cores.
   if (options.threads > 0) cv::setNumThreads(std::min(options.threads, WorkerThreads(0)));
   const RunOptions used = options.Resolved();
-  RgbdFrameSource source(dataset, used.source);
+  RgbdFrameSource source(dataset, used.source, continued != nullptr ? continued->map_frames() : 0);
+  PipelineResume resume;
+  if (continued != nullptr) resume = StartFromMap(*continued, used, &source, &run);
   if (used.build_map) run.map.emplace(used.map);
   // A stop the selection obeyed ends the selection only: the frames it processed are still
   // mapped and refined (a second signal ends the process). The later stages obey a stop
@@ -258,7 +284,7 @@ RunResult RunOnDataset(const Dataset& dataset, const RunOptions& options,
   const RangeCloudLoader clouds = [&](const std::vector<int>& frames,
                                       const std::vector<std::optional<Eigen::Isometry3d>>& T_w_c) {
     RangeClouds loaded;
-    LoadSelectedFrames(dataset, frames, T_w_c, used.range_cloud, map_workers,
+    LoadSelectedFrames(dataset, run.map_frames, frames, T_w_c, used.range_cloud, map_workers,
                        run.map ? &*run.map : nullptr, &loaded, loader_stop,
                        &run.stopped_after_selection, &run.warnings);
     map_built = true;
@@ -270,7 +296,8 @@ RunResult RunOnDataset(const Dataset& dataset, const RunOptions& options,
     pipeline_hooks.before_finish = TakingBaseFrames(hooks.before_finish, dataset, &source, &taken);
   }
   run.setup_seconds = SecondsSince(run.started);
-  run.pipeline = RunPipeline(&source, dataset.rig().colour, used.pipeline, pipeline_hooks, clouds);
+  run.pipeline = RunPipeline(&source, dataset.rig().colour, used.pipeline, pipeline_hooks, clouds,
+                             continued != nullptr ? &resume : nullptr);
   run.frontend = source.timings();
   if (used.save_map && run.pipeline.has_estimate) SaveMap(dataset, used, std::move(taken), &run);
   const auto evaluation_start = std::chrono::steady_clock::now();
@@ -282,7 +309,7 @@ RunResult RunOnDataset(const Dataset& dataset, const RunOptions& options,
     const std::function<bool()> map_stop = [&] {
       return !selection_interrupted && hooks.stop && hooks.stop();
     };
-    LoadSelectedFrames(dataset, run.pipeline.selection.selected, run.pipeline.T_w_c,
+    LoadSelectedFrames(dataset, run.map_frames, run.pipeline.selection.selected, run.pipeline.T_w_c,
                        used.range_cloud, map_workers, &*run.map, nullptr, map_stop,
                        &run.stopped_after_selection, &run.warnings);
     run.map_seconds += SecondsSince(map_start);
@@ -297,6 +324,21 @@ RunResult RunOnDataset(const Dataset& dataset, const RunOptions& options,
   }
   if (dataset.has_ground_truth()) EvaluateAgainstGroundTruth(&run);
   return run;
+}
+
+}  // namespace
+
+RunResult RunOnDataset(const Dataset& dataset, const RunOptions& options,
+                       const PipelineHooks& hooks) {
+  return Run(dataset, options, hooks, nullptr);
+}
+
+RunResult ContinueMapping(const ContinuedDataset& dataset, const RunOptions& options,
+                          const PipelineHooks& hooks) {
+  if (options.pipeline.selector.kind == SelectorKind::kDeadReckoning) {
+    throw ConfigError("mapping on from a saved map needs a filter: not with deadreckoning");
+  }
+  return Run(dataset, options, hooks, &dataset);
 }
 
 }  // namespace ieslam

@@ -18,6 +18,7 @@
 #include "core/trajectory.h"
 #include "frontend/dense_map.h"
 #include "frontend/rgbd_frame_source.h"
+#include "selection/pipeline/continued_dataset.h"
 #include "selection/pipeline/pipeline.h"
 #include "selection/pipeline/run_options.h"
 #include "selection/pipeline/saved_map.h"
@@ -59,6 +60,11 @@ struct RunResult {
   double map_seconds = 0.0;
   double evaluation_seconds = 0.0;
   std::vector<std::string> warnings;  // things the user should hear about, one line each
+  // Continued from a saved map (ContinueMapping): its file, and its keyframes, which are the
+  // frames before map_frames.
+  std::string continued_map_file;
+  int map_frames = 0;
+  double map_load_seconds = 0.0;  // reading that map, as the caller timed it
 
   // hooks.stop said so after the selection (in the refinement or the map); the map then
   // holds the frames loaded before.
@@ -75,5 +81,14 @@ struct RunResult {
 // for options failing Check(); DataError from the dataset propagates.
 RunResult RunOnDataset(const Dataset& dataset, const RunOptions& options,
                        const PipelineHooks& hooks = {});
+
+// The same, going on from the saved map `dataset` continues: the filter resumes from the map's
+// state, its keyframes are base frames from the start, and new keyframes and features join
+// them, so that the result (and its saved map) is one map of both sessions. The outputs cover
+// the map's keyframes as frames 0 .. map_frames-1 (ContinuedDataset); they are not in the
+// dense map or the depth alignment (a warning). Throws as RunOnDataset, and ConfigError for
+// dead reckoning, which keeps no filter to go on with.
+RunResult ContinueMapping(const ContinuedDataset& dataset, const RunOptions& options,
+                          const PipelineHooks& hooks = {});
 
 }  // namespace ieslam

@@ -108,10 +108,10 @@ MapLocalizer::MapLocalizer(const SavedMap& map, const FrontendOptions& frontend,
   bases_.resize(map.base_frames.size());
   for (size_t k = 0; k < map.base_frames.size(); ++k) {
     const MapBaseFrame& b = map.base_frames[k];
-    bases_[k].info.index = b.frame;
-    bases_[k].info.timestamp = b.timestamp;
-    bases_[k].features = b.features;
-    bases_[k].points = b.points;
+    FrameInfo info;
+    info.index = b.frame;
+    info.timestamp = b.timestamp;
+    bases_[k] = ProcessedBaseFrame(b, info);
     const MapKeyframe& keyframe = map.keyframes[k];
     base_poses_.push_back(PoseToIsometry(refined_ ? keyframe.refined_pose : keyframe.pose));
     if (b.features.size() > 0) database_.Add(static_cast<int>(k), b.features.descriptors);

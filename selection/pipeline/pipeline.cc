@@ -33,15 +33,16 @@ bool PipelineOptions::Check(std::string* why) const {
 
 PipelineResult RunPipeline(FrameSource* source, const PinholeCamera& camera,
                            const PipelineOptions& options, const PipelineHooks& hooks,
-                           const RangeCloudLoader& clouds) {
+                           const RangeCloudLoader& clouds, const PipelineResume* resume) {
   std::string why;
   if (!options.Check(&why)) throw ConfigError(why);
   PipelineResult result;
   result.filter = std::make_unique<InformationFilter>(options.filter, camera);
+  if (resume != nullptr) result.filter->Restore(resume->filter);
   const auto selection_start = std::chrono::steady_clock::now();
-  result.selection =
-      KeyframeSelector(options.selector)
-          .Run(source, result.filter.get(), hooks.progress, hooks.stop, hooks.on_decision);
+  result.selection = KeyframeSelector(options.selector)
+                         .Run(source, result.filter.get(), hooks.progress, hooks.stop,
+                              hooks.on_decision, resume ? &resume->selection : nullptr);
   result.selection_wall_seconds = SecondsSince(selection_start);
   if (hooks.before_finish) hooks.before_finish(result.selection, *result.filter);
   source->Finish();

@@ -62,6 +62,13 @@ struct PipelineHooks {
 using RangeCloudLoader = std::function<RangeClouds(
     const std::vector<int>& selected, const std::vector<std::optional<Eigen::Isometry3d>>& T_w_c)>;
 
+// Mapping continued from a saved map: the filter as it stood (renumbered so that its poses are
+// the source's first frames) and the selection it held.
+struct PipelineResume {
+  FilterSnapshot filter;
+  SelectionResume selection;
+};
+
 struct PipelineResult {
   SelectionResult selection;
   // The filter with every selected pose and feature (empty for dead reckoning).
@@ -85,10 +92,13 @@ struct PipelineResult {
 
 // Runs the selector over every frame of `source` (observations in `camera`'s model) into a
 // new filter, recovers the estimate and, with options.refine, refines it (range clouds from
-// `clouds` when set). Throws ConfigError for options failing Check(); DataError from the
-// source propagates.
+// `clouds` when set). With `resume`, the filter starts from its snapshot and the selector
+// goes on after the frames it holds (KeyframeSelector::Run). Throws ConfigError for options
+// failing Check(); DataError from the source or a snapshot that does not hold together
+// propagates.
 PipelineResult RunPipeline(FrameSource* source, const PinholeCamera& camera,
                            const PipelineOptions& options, const PipelineHooks& hooks = {},
-                           const RangeCloudLoader& clouds = nullptr);
+                           const RangeCloudLoader& clouds = nullptr,
+                           const PipelineResume* resume = nullptr);
 
 }  // namespace ieslam

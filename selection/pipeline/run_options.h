@@ -55,9 +55,9 @@ int WorkerThreads(int threads);
 // check. Flags given on the command line are applied after it.
 void ApplyConfigFile(const std::string& path, RunOptions* options);
 
-// Applies the front-end sections (features, lifting, matching, registration, database) of
-// `config`, a saved map's options as a config file (`source` names it in errors), to
-// *options: a map's descriptors match only frames processed the same way. The mapping run's
+// Applies the front-end sections (features, lifting, matching, registration, database,
+// source) of `config`, a saved map's options as a config file (`source` names it in errors),
+// to *options: a map's descriptors match only frames processed the same way. The mapping run's
 // frame range, threads and selection do not carry over.
 void ApplyMapFrontEndOptions(const std::string& config, const std::string& source,
                              RunOptions* options);

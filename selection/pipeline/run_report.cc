@@ -199,6 +199,13 @@ Json RunReport(const Dataset& dataset, const RunOptions& options, const RunResul
       .Set("features", p.filter->num_features())
       .Set("interrupted", run.interrupted())
       .Set("frames_processed", run.frames_processed());
+  if (!run.continued_map_file.empty()) {
+    report.Set("continued_map", Json::Object()
+                                    .Set("file", run.continued_map_file)
+                                    .Set("keyframes", run.map_frames)
+                                    .Set("dataset_frames", dataset.size() - run.map_frames)
+                                    .Set("load_seconds", run.map_load_seconds));
+  }
   if (run.saved_map) {
     int64_t keypoints = 0;
     for (const MapBaseFrame& b : run.saved_map->base_frames) keypoints += b.features.size();

@@ -1,6 +1,7 @@
 #include "selection/pipeline/saved_map.h"
 
 #include <algorithm>
+#include <chrono>
 #include <filesystem>
 #include <unordered_set>
 
@@ -9,6 +10,7 @@
 #include "core/error.h"
 #include "core/file_util.h"
 #include "core/section_file.h"
+#include "core/stopwatch.h"
 #include "core/version.h"
 
 namespace ieslam {
@@ -49,6 +51,7 @@ std::string WriteKeyframes(const SavedMap& map) {
   w.U64(map.keyframes.size());
   for (const MapKeyframe& k : map.keyframes) {
     w.I32(k.frame);
+    w.I32(k.source_index);
     w.F64(k.timestamp);
     WriteMatrix(k.pose, &w);
     WriteMatrix(k.covariance, &w);
@@ -56,6 +59,12 @@ std::string WriteKeyframes(const SavedMap& map) {
     WriteMatrix(k.refined_pose, &w);
     w.U8(k.has_ground_truth ? 1 : 0);
     WriteMatrix(k.ground_truth, &w);
+    w.U64(k.observations.size());
+    for (const FeatureObservation& o : k.observations) {
+      w.I64(o.feature_id);
+      WriteMatrix(o.z, &w);
+      WriteMatrix(o.Q, &w);
+    }
   }
   return w.Take();
 }
@@ -149,10 +158,11 @@ void ReadMeta(SectionReader* r, SavedMap* map) {
 }
 
 void ReadKeyframes(SectionReader* r, SavedMap* map) {
-  const size_t n = r->Count(4 + 8 + 6 * 8 + 36 * 8 + 1 + 6 * 8 + 1 + 6 * 8);
+  const size_t n = r->Count(4 + 4 + 8 + 6 * 8 + 36 * 8 + 1 + 6 * 8 + 1 + 6 * 8 + 8);
   map->keyframes.resize(n);
   for (MapKeyframe& k : map->keyframes) {
     k.frame = r->I32();
+    k.source_index = r->I32();
     k.timestamp = r->F64();
     ReadMatrix(r, &k.pose);
     ReadMatrix(r, &k.covariance);
@@ -160,6 +170,12 @@ void ReadKeyframes(SectionReader* r, SavedMap* map) {
     ReadMatrix(r, &k.refined_pose);
     k.has_ground_truth = r->U8() != 0;
     ReadMatrix(r, &k.ground_truth);
+    k.observations.resize(r->Count(8 + 12 * 8));
+    for (FeatureObservation& o : k.observations) {
+      o.feature_id = r->I64();
+      ReadMatrix(r, &o.z);
+      ReadMatrix(r, &o.Q);
+    }
   }
 }
 
@@ -287,6 +303,14 @@ void CheckConsistent(const SavedMap& map, const std::string& where) {
   if (std::find(covered.begin(), covered.end(), 0) != covered.end()) {
     fail("part of the state belongs to no pose or feature");
   }
+  for (const MapKeyframe& k : map.keyframes) {
+    for (const FeatureObservation& o : k.observations) {
+      if (ids.count(o.feature_id) == 0) {
+        fail("keyframe " + std::to_string(k.frame) + " observes feature " +
+             std::to_string(o.feature_id) + ", which the map does not hold");
+      }
+    }
+  }
   for (const MapBaseFrame& b : map.base_frames) {
     for (int64_t id : b.feature_ids) {
       if (id >= 0 && ids.count(id) == 0) {
@@ -300,8 +324,10 @@ void CheckConsistent(const SavedMap& map, const std::string& where) {
 }  // namespace
 
 SavedMap MakeSavedMap(const InformationFilter& filter, const SlamEstimate& estimate,
-                      std::vector<MapBaseFrame> base_frames, const Refinement* refinement,
-                      const Rig& rig, const std::string& options, const std::string& dataset) {
+                      std::vector<MapBaseFrame> base_frames,
+                      const std::map<int, std::vector<FeatureObservation>>& observations,
+                      const Refinement* refinement, const Rig& rig, const std::string& options,
+                      const std::string& dataset) {
   CHECK_EQ(static_cast<int>(base_frames.size()), filter.num_poses())
       << "one base frame per filter pose";
   SavedMap map;
@@ -326,7 +352,9 @@ SavedMap MakeSavedMap(const InformationFilter& filter, const SlamEstimate& estim
     const auto it = refined.poses.find(frame);
     keyframe.refined = it != refined.poses.end();
     if (keyframe.refined) keyframe.refined_pose = it->second;
-    map.keyframes.push_back(keyframe);
+    const auto entered = observations.find(frame);
+    if (entered != observations.end()) keyframe.observations = entered->second;
+    map.keyframes.push_back(std::move(keyframe));
   }
 
   const std::vector<int64_t>& ids = filter.feature_ids();
@@ -405,6 +433,25 @@ std::string FindMapDirectory(const std::string& dir) {
     return JoinPath(dir, kMapDirectory);
   }
   return dir;
+}
+
+ProcessedFrame ProcessedBaseFrame(const MapBaseFrame& base, const FrameInfo& info) {
+  ProcessedFrame processed;
+  processed.info = info;
+  processed.features = base.features;
+  processed.points = base.points;
+  return processed;
+}
+
+std::string LoadedMap::file() const { return JoinPath(directory, kMapFileName); }
+
+LoadedMap LoadMap(const std::string& path) {
+  const auto start = std::chrono::steady_clock::now();
+  LoadedMap loaded;
+  loaded.directory = FindMapDirectory(path);
+  loaded.map = ReadSavedMap(loaded.directory);
+  loaded.load_seconds = SecondsSince(start);
+  return loaded;
 }
 
 void CheckMapCalibration(const SavedMap& map, const Rig& rig, const std::string& dir) {

@@ -3,10 +3,10 @@
 //
 // It holds the base-frame database (each keyframe's lifted keypoints with their descriptors
 // and the map feature each one is), the keyframes' poses (the filter's with their marginal
-// covariances and, after a refinement, the refined ones), the features with their marginal
-// covariances, the filter's information matrix, vector and state exactly as they stand (so
-// that mapping resumes from the same estimate), and the calibration and options it was made
-// with.
+// covariances and, after a refinement, the refined ones, and the observations each entered
+// the filter with), the features with their marginal covariances, the filter's information
+// matrix, vector and state exactly as they stand (so that mapping resumes from the same
+// estimate), and the calibration and options it was made with.
 //
 // On disk: OUT/map/map.bin, a section file (core/section_file.h) with magic "IESLAMAP",
 // format version kMapFormatVersion, and the sections META, KFRM, FEAT, BASE and FILT in that
@@ -14,6 +14,7 @@
 #pragma once
 
 #include <cstdint>
+#include <map>
 #include <string>
 #include <utility>
 #include <vector>
@@ -23,14 +24,16 @@
 #include "backend/information_filter.h"
 #include "backend/slam_estimate.h"
 #include "core/calibration.h"
+#include "core/observation.h"
 #include "core/pose.h"
 #include "frontend/features.h"
+#include "frontend/frame_processor.h"
 #include "frontend/lifting.h"
 #include "selection/pipeline/refinement.h"
 
 namespace ieslam {
 
-inline constexpr uint32_t kMapFormatVersion = 2;
+inline constexpr uint32_t kMapFormatVersion = 3;
 inline constexpr char kMapDirectory[] = "map";
 inline constexpr char kMapFileName[] = "map.bin";
 
@@ -45,7 +48,8 @@ struct MapBaseFrame {
 };
 
 struct MapKeyframe {
-  int frame = -1;
+  int frame = -1;         // its index in the mapping run's frames
+  int source_index = -1;  // its index in the mapping dataset (FrameInfo::source_index)
   double timestamp = 0.0;
   Vector6d pose = Vector6d::Zero();          // the filter's, camera-to-world (core/pose.h)
   Matrix6d covariance = Matrix6d::Zero();    // its marginal covariance
@@ -56,6 +60,9 @@ struct MapKeyframe {
   // localisation in it.
   bool has_ground_truth = false;
   Vector6d ground_truth = Vector6d::Zero();
+  // The observations the keyframe entered the filter with (after the filter's gate): what a
+  // continued run's bundle adjustment takes up for it.
+  std::vector<FeatureObservation> observations;
 };
 
 struct MapFeature {
@@ -81,12 +88,15 @@ struct SavedMap {
 // The map of a run: `filter` holds the selected poses and features, `estimate` is its
 // estimate (FilterEstimate: the pose covariances are taken from it where it has them),
 // `base_frames` the keyframes' processed frames (one per filter pose, in the filter's order),
+// `observations` the observations each filter pose entered with (SelectionResult's);
 // `refinement` the refined estimate or nullptr. Feature ids of base-frame rows that are not in
 // the filter become -1. The features' marginal covariances come from the filter's factor, a
 // few hundred features per recovery.
 SavedMap MakeSavedMap(const InformationFilter& filter, const SlamEstimate& estimate,
-                      std::vector<MapBaseFrame> base_frames, const Refinement* refinement,
-                      const Rig& rig, const std::string& options, const std::string& dataset);
+                      std::vector<MapBaseFrame> base_frames,
+                      const std::map<int, std::vector<FeatureObservation>>& observations,
+                      const Refinement* refinement, const Rig& rig, const std::string& options,
+                      const std::string& dataset);
 
 // Writes `map` to `dir`/map.bin atomically (`dir` must exist). Throws OutputError naming the
 // file when it cannot be written.
@@ -100,6 +110,20 @@ SavedMap ReadSavedMap(const std::string& dir);
 // The directory holding a map file: `dir` itself, or `dir`/map when `dir` is a run's output
 // directory (and holds no map file itself).
 std::string FindMapDirectory(const std::string& dir);
+
+// A saved map as a later session reads it.
+struct LoadedMap {
+  std::string directory;  // holding the map file (FindMapDirectory)
+  SavedMap map;
+  double load_seconds = 0.0;  // reading and checking it
+  std::string file() const;
+};
+
+// FindMapDirectory(path), then ReadSavedMap, timed. Throws as ReadSavedMap.
+LoadedMap LoadMap(const std::string& path);
+
+// The base frame as the front end holds it, as frame `info`.
+ProcessedFrame ProcessedBaseFrame(const MapBaseFrame& base, const FrameInfo& info);
 
 // Throws DataError naming `dir`'s map file unless `map` was made with `rig`'s calibration (a
 // map made through other optics places nothing right).

@@ -163,6 +163,63 @@ TEST_F(CommandRunTest, AGuessedCalibrationIsAWarningOnStderrAndInTheReport) {
   EXPECT_NE(report.find(warning, warnings), std::string::npos) << report.substr(0, 2000);
 }
 
+// A map of the first half, then --map over the second half: one map of both, whose outputs
+// hold the map's keyframes first and the second half's frames after them; a map that is not
+// there is exit 3 naming its file, dead reckoning exit 2.
+TEST_F(CommandRunTest, MapOnFromASavedMapIntoOneMapOfBothHalves) {
+  const std::string dataset = (root_ / "synthetic").string();
+  const fs::path first = root_ / "first_half", second = root_ / "second_half";
+  const testing_apps::CommandResult mapped = testing_apps::RunIeslam(
+      "run --quiet --threads 1 --last 17 --dataset " + dataset + " --output " + first.string());
+  ASSERT_EQ(mapped.exit_code, 0) << mapped.output;
+  const testing_apps::CommandResult continued =
+      testing_apps::RunIeslam("run --quiet --threads 1 --first 18 --map " + first.string() +
+                              " --dataset " + dataset + " --output " + second.string());
+  ASSERT_EQ(continued.exit_code, 0) << continued.output;
+  EXPECT_NE(continued.output.find("keyframes are left out of the map"), std::string::npos)
+      << continued.output;
+  const std::string first_report = ReadFile(first / "report.json");
+  const std::string report = ReadFile(second / "report.json");
+  std::smatch m;
+  ASSERT_TRUE(std::regex_search(first_report, m, std::regex("\"frames_selected\": (\\d+)")));
+  const int map_keyframes = std::stoi(m[1]);
+  ASSERT_TRUE(std::regex_search(
+      report, m,
+      std::regex(
+          "\"continued_map\": \\{[^}]*\"keyframes\": (\\d+)[^}]*\"dataset_frames\": (\\d+)")))
+      << report.substr(0, 3000);
+  EXPECT_EQ(std::stoi(m[1]), map_keyframes);
+  EXPECT_EQ(std::stoi(m[2]), 18);
+  ASSERT_TRUE(std::regex_search(report, m, std::regex("\"frames_selected\": (\\d+)")));
+  const int keyframes = std::stoi(m[1]);
+  EXPECT_GT(keyframes, map_keyframes);
+  // keyframes.tum: the header, then every keyframe of both halves.
+  std::ifstream both(second / "keyframes.tum");
+  std::string line;
+  ASSERT_TRUE(std::getline(both, line));
+  int lines = 0;
+  while (std::getline(both, line)) ++lines;
+  EXPECT_EQ(lines, keyframes);
+  const double ate =
+      EvaluateTrajectoryFiles((second / "groundtruth.tum").string(),
+                              (second / "keyframes.tum").string(), EvaluationOptions())
+          .ate.translation.rmse;
+  EXPECT_LT(ate, 0.01);
+  ASSERT_TRUE(fs::is_regular_file(second / "map" / "map.bin"));
+
+  const testing_apps::CommandResult missing =
+      testing_apps::RunIeslam("run --quiet --map " + (root_ / "no_map").string() + " --dataset " +
+                              dataset + " --output " + (root_ / "no_map_out").string());
+  EXPECT_EQ(missing.exit_code, 3) << missing.output;
+  EXPECT_NE(missing.output.find((root_ / "no_map" / "map.bin").string()), std::string::npos)
+      << missing.output;
+  const testing_apps::CommandResult reckoning = testing_apps::RunIeslam(
+      "run --quiet --selector deadreckoning --first 18 --map " + first.string() + " --dataset " +
+      dataset + " --output " + (root_ / "reckoning").string());
+  EXPECT_EQ(reckoning.exit_code, 2) << reckoning.output;
+  EXPECT_NE(reckoning.output.find("needs a filter"), std::string::npos) << reckoning.output;
+}
+
 TEST_F(CommandRunTest, MissingDatasetIsADataErrorNamingIt) {
   const testing_apps::CommandResult missing =
       testing_apps::RunIeslam("run --dataset " + (root_ / "no_such_dataset").string() +

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import ieslam
-from conftest import LAST, SEED
+from conftest import LAST, SEED, cli
 
 
 @pytest.mark.parametrize("name", ["trajectory.tum", "keyframes.tum", "groundtruth.tum",
@@ -97,3 +97,23 @@ def test_refine(seven_scenes, tmp_path):
     result.write(str(tmp_path))
     from_file = np.loadtxt(tmp_path / "refined.tum", comments="#", ndmin=2)
     np.testing.assert_allclose(refined[:, 1:], from_file[:, 1:], rtol=0, atol=1e-9)
+
+
+def test_run_on_from_a_map_equals_the_cli(runs, seven_scenes, tmp_path):
+    _, _, cli_run = runs  # a map of frames 0..LAST
+    first, last = LAST + 1, LAST + 40
+    result = ieslam.run(seven_scenes, {"write_map": False}, map=str(cli_run), threads=1,
+                        seed=SEED, first=first, last=last)
+    result.write(str(tmp_path / "python"))
+    cli("run", "--quiet", "--map", cli_run, "--dataset", seven_scenes, "--output",
+        tmp_path / "cli", "--threads", 1, "--seed", SEED, "--first", first, "--last", last)
+    for name in ("keyframes.tum", "trajectory.tum", "selected_frames.txt"):
+        assert ((tmp_path / "python" / name).read_bytes() ==
+                (tmp_path / "cli" / name).read_bytes()), name
+    report = json.loads((tmp_path / "cli" / "report.json").read_text())
+    mapped = json.loads((cli_run / "report.json").read_text())
+    assert report["continued_map"]["keyframes"] == mapped["frames_selected"]
+    assert report["frames_selected"] > mapped["frames_selected"]
+    assert result.keyframes.shape[0] == report["frames_selected"]
+    with pytest.raises(ieslam.DataError, match="map.bin"):
+        ieslam.run(seven_scenes, map=str(tmp_path / "nothing"), first=first, last=last)

@@ -15,37 +15,27 @@
 #include "frontend/simulation/synthetic_dataset.h"
 #include "selection/pipeline/dataset_run.h"
 #include "selection/pipeline/localization_outputs.h"
+#include "two_passes.h"
 
 namespace ieslam {
 namespace {
 
 namespace fs = std::filesystem;
 
-SyntheticDatasetOptions Pass() {
-  SyntheticDatasetOptions options;
-  options.frames = 40;
-  options.frames_per_loop = 300;  // hand-held motion: ~2 cm and ~1.5 deg per frame
-  return options;
-}
-
 class LocalizationTest : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     root_ = fs::temp_directory_path() / ("ieslam_localization_test_" + std::to_string(::getpid()));
-    WriteSyntheticDataset((root_ / "first").string(), Pass());
-    // The second pass: 5 cm lower, 5 cm further in, other noise, and a quarter of a frame's
-    // time later, so that no frame of it is a frame of the map.
-    SyntheticDatasetOptions second = Pass();
-    second.trajectory.height_m -= 0.05;
-    second.trajectory.radii_m -= Eigen::Vector2d(0.05, 0.05);
-    second.noise_seed = 7;
+    WriteSyntheticDataset((root_ / "first").string(), FirstPass());
+    // A quarter of a frame's time later, so that no frame of it is a frame of the map.
+    SyntheticDatasetOptions second = SecondPass();
     second.start_time_s += 0.25 / second.frame_rate_hz;
     WriteSyntheticDataset((root_ / "second").string(), second);
-    SyntheticDatasetOptions elsewhere = Pass();
+    SyntheticDatasetOptions elsewhere = FirstPass();
     elsewhere.frames = 6;
     elsewhere.scene.seed += 1;  // another room
     WriteSyntheticDataset((root_ / "elsewhere").string(), elsewhere);
-    SyntheticDatasetOptions fast = Pass();
+    SyntheticDatasetOptions fast = FirstPass();
     fast.frames = 24;
     fast.frames_per_loop = 60;  // 6 deg a frame round the room: soon out of the first view
     WriteSyntheticDataset((root_ / "fast").string(), fast);

@@ -39,12 +39,19 @@ void ExpectSameMap(const SavedMap& a, const SavedMap& b) {
   for (size_t k = 0; k < a.keyframes.size(); ++k) {
     const MapKeyframe &x = a.keyframes[k], &y = b.keyframes[k];
     EXPECT_EQ(x.frame, y.frame);
+    EXPECT_EQ(x.source_index, y.source_index);
     EXPECT_EQ(x.timestamp, y.timestamp);
     EXPECT_TRUE(SameBits(x.pose, y.pose) && SameBits(x.covariance, y.covariance));
     EXPECT_EQ(x.refined, y.refined);
     EXPECT_TRUE(SameBits(x.refined_pose, y.refined_pose));
     EXPECT_EQ(x.has_ground_truth, y.has_ground_truth);
     EXPECT_TRUE(SameBits(x.ground_truth, y.ground_truth));
+    ASSERT_EQ(x.observations.size(), y.observations.size());
+    for (size_t i = 0; i < x.observations.size(); ++i) {
+      EXPECT_EQ(x.observations[i].feature_id, y.observations[i].feature_id);
+      EXPECT_TRUE(SameBits(x.observations[i].z, y.observations[i].z) &&
+                  SameBits(x.observations[i].Q, y.observations[i].Q));
+    }
   }
   ASSERT_EQ(a.features.size(), b.features.size());
   for (size_t k = 0; k < a.features.size(); ++k) {
@@ -140,10 +147,18 @@ TEST_F(SavedMapTest, HoldsTheFiltersEstimateTheRefinedPosesAndTheGroundTruth) {
     EXPECT_EQ(k.covariance, filter.PoseCovariance(k.frame));
     EXPECT_TRUE(k.refined);
     EXPECT_EQ(k.refined_pose, refined.poses.at(k.frame));
+    EXPECT_EQ(k.source_index, dataset_->info(k.frame).source_index);
     const auto& gt = dataset_->info(k.frame).T_w_c_gt;
     ASSERT_TRUE(gt.has_value());
     EXPECT_TRUE(k.has_ground_truth);
     EXPECT_EQ(k.ground_truth, IsometryToPose(*gt));
+    // The observations the keyframe entered with: those of the filter's problem.
+    const auto& entered = run_->pipeline.selection.observations.at(k.frame);
+    ASSERT_EQ(k.observations.size(), entered.size());
+    for (size_t i = 0; i < entered.size(); ++i) {
+      EXPECT_EQ(k.observations[i].feature_id, entered[i].feature_id);
+      EXPECT_EQ(k.observations[i].z, entered[i].z);
+    }
   }
   ASSERT_EQ(static_cast<int>(map.features.size()), filter.num_features());
   for (const MapFeature& f : map.features) {
@@ -239,6 +254,16 @@ TEST_F(SavedMapTest, EachKindOfBadMapIsRefusedNamingTheFileAndTheFault) {
   } catch (const DataError& e) {
     EXPECT_NE(std::string(e.what()).find("which the map does not hold"), std::string::npos)
         << e.what();
+  }
+  map = *run_->saved_map;
+  ASSERT_FALSE(map.keyframes[1].observations.empty());
+  map.keyframes[1].observations[0].feature_id = 1LL << 41;
+  WriteSavedMap(dir.string(), map);
+  try {
+    ReadSavedMap(dir.string());
+    FAIL() << "an observation of an unknown feature was read";
+  } catch (const DataError& e) {
+    EXPECT_NE(std::string(e.what()).find("observes feature"), std::string::npos) << e.what();
   }
   map = *run_->saved_map;
   map.features[0].id = -5;
