@@ -1,10 +1,16 @@
 #include "selection/pipeline/continued_dataset.h"
 
 #include <algorithm>
+#include <cmath>
+#include <memory>
+#include <stdexcept>
 #include <unordered_map>
+#include <utility>
 
+#include "core/calibration.h"
 #include "core/error.h"
 #include "core/pose.h"
+#include "selection/pipeline/run_options.h"
 
 namespace ieslam {
 
@@ -35,6 +41,7 @@ ContinuedDataset::ContinuedDataset(const LoadedMap& map, const Dataset& next,
     if (keyframe.has_ground_truth) info.T_w_c_gt = PoseToIsometry(keyframe.ground_truth);
     frames_.push_back(info);
   }
+  FindMapImages();
   const double last_map_s = keyframes.back().timestamp;
   if (next.size() > 0 && next.info(0).timestamp <= last_map_s) {
     timestamp_shift_s_ = last_map_s + 1.0 - next.info(0).timestamp;
@@ -48,6 +55,38 @@ ContinuedDataset::ContinuedDataset(const LoadedMap& map, const Dataset& next,
     info.index = map_frames() + f;
     info.timestamp += timestamp_shift_s_;
     frames_.push_back(std::move(info));
+  }
+}
+
+void ContinuedDataset::FindMapImages() {
+  const SavedMap& map = map_.map;
+  std::unique_ptr<Dataset> mapping;
+  try {
+    mapping = OpenDataset(map.dataset, MapDatasetOptions(map.options, map_.file()));
+  } catch (const std::runtime_error& e) {
+    map_images_missing_ = "its dataset " + map.dataset + " cannot be opened: " + e.what();
+    return;
+  }
+  if (FormatCalibration(mapping->rig()) != map.calibration) {
+    map_images_missing_ = "its dataset " + map.dataset + " has another calibration now";
+    return;
+  }
+  std::vector<std::pair<std::string, std::string>> paths;
+  for (const MapKeyframe& k : map.keyframes) {
+    // A frame read again from the same files has the same timestamp.
+    if (k.source_index < 0 || k.source_index >= mapping->size() ||
+        std::abs(mapping->info(k.source_index).timestamp - k.timestamp) > 1e-6) {
+      map_images_missing_ = "its dataset " + map.dataset + " holds no frame " +
+                            std::to_string(k.source_index) + " at " + std::to_string(k.timestamp) +
+                            " s";
+      return;
+    }
+    const FrameInfo& info = mapping->info(k.source_index);
+    paths.emplace_back(info.colour_path, info.depth_path);
+  }
+  for (size_t k = 0; k < paths.size(); ++k) {
+    frames_[k].colour_path = paths[k].first;
+    frames_[k].depth_path = paths[k].second;
   }
 }
 

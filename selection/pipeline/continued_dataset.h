@@ -2,9 +2,10 @@
 // frames, as one dataset, and what the pipeline resumes from.
 //
 // Frame k < map_frames() is the map's keyframe k (keyframes enter a map in time order), with
-// the timestamp, dataset index and ground truth the map keeps; its images are not at hand and
-// are never loaded. Frames map_frames() .. are the dataset's, in its order. Numbered that way,
-// every frame of the continued run is one index of one dataset, as a run's outputs expect.
+// the timestamp, dataset index and ground truth the map keeps, and its images when the mapping
+// run's dataset is where the map says (map_images()). Frames map_frames() .. are the dataset's,
+// in its order. Numbered that way, every frame of the continued run is one index of one
+// dataset, as a run's outputs expect.
 #pragma once
 
 #include <string>
@@ -32,6 +33,11 @@ class ContinuedDataset : public Dataset {
   const LoadedMap& map() const { return map_; }
   // Seconds added to the dataset's timestamps (0 unless shifted).
   double timestamp_shift_s() const { return timestamp_shift_s_; }
+  // True when the map's frames have their images: the mapping run's dataset (SavedMap::dataset,
+  // opened with the map's dataset options) is there, with the map's calibration, and holds
+  // each keyframe's frame at its timestamp. Otherwise why not, for a warning.
+  bool map_images() const { return map_images_missing_.empty(); }
+  const std::string& map_images_missing() const { return map_images_missing_; }
 
   // The map's keyframes into `source` as its base frames, and the map's feature ids as taken.
   void AddBaseFrames(RgbdFrameSource* source) const;
@@ -42,6 +48,11 @@ class ContinuedDataset : public Dataset {
   const LoadedMap& map_;
   std::string format_;
   double timestamp_shift_s_ = 0.0;
+  std::string map_images_missing_;
+
+  // The image paths of the map's frames from the mapping run's dataset, or the reason in
+  // map_images_missing_.
+  void FindMapImages();
 };
 
 }  // namespace ieslam

@@ -88,8 +88,8 @@ std::string FrameUses(bool map, bool alignment) {
 // no cloud, is left out with a warning. Stops early, setting *stopped, once `stop` (when
 // set) says so. With workers > 0 that many threads load frames (decoding, points, clouds)
 // ahead of the caller, who adds them to the map in the given order: the same map as one
-// thread gives. Frames before `first_frame` (a saved map's keyframes) have no images at hand
-// and are left out.
+// thread gives. Frames before `first_frame` (a saved map's keyframes, when their images are
+// not at hand) are left out.
 void LoadSelectedFrames(const Dataset& dataset, int first_frame, const std::vector<int>& frames,
                         const std::vector<std::optional<Eigen::Isometry3d>>& T_w_c,
                         const RangeCloudOptions& cloud_options, int workers, DenseMap* map,
@@ -244,10 +244,11 @@ PipelineResume StartFromMap(const ContinuedDataset& continued, const RunOptions&
   run->continued_map_file = continued.map().file();
   run->map_load_seconds = continued.map().load_seconds;
   const bool align = used.pipeline.refine && used.pipeline.depth_alignment.rounds > 0;
-  if (used.build_map || align) {
+  if (!continued.map_images() && (used.build_map || align)) {
     run->warnings.push_back("the saved map's " + std::to_string(run->map_frames) +
                             " keyframes are left out of " + FrameUses(used.build_map, align) +
-                            ": their images are not at hand");
+                            ": their images are not at hand (" + continued.map_images_missing() +
+                            ")");
   }
   return continued.Resume();
 }
@@ -263,6 +264,10 @@ RunResult Run(const Dataset& dataset, const RunOptions& options, const PipelineH
   if (options.threads > 0) cv::setNumThreads(std::min(options.threads, WorkerThreads(0)));
   const RunOptions used = options.Resolved();
   RgbdFrameSource source(dataset, used.source, continued != nullptr ? continued->map_frames() : 0);
+  // The frames whose images the map and the depth alignment can load: all but a saved map's
+  // keyframes whose images are not at hand.
+  const int first_loadable =
+      continued != nullptr && !continued->map_images() ? continued->map_frames() : 0;
   PipelineResume resume;
   if (continued != nullptr) resume = StartFromMap(*continued, used, &source, &run);
   if (used.build_map) run.map.emplace(used.map);
@@ -284,7 +289,7 @@ RunResult Run(const Dataset& dataset, const RunOptions& options, const PipelineH
   const RangeCloudLoader clouds = [&](const std::vector<int>& frames,
                                       const std::vector<std::optional<Eigen::Isometry3d>>& T_w_c) {
     RangeClouds loaded;
-    LoadSelectedFrames(dataset, run.map_frames, frames, T_w_c, used.range_cloud, map_workers,
+    LoadSelectedFrames(dataset, first_loadable, frames, T_w_c, used.range_cloud, map_workers,
                        run.map ? &*run.map : nullptr, &loaded, loader_stop,
                        &run.stopped_after_selection, &run.warnings);
     map_built = true;
@@ -309,7 +314,7 @@ RunResult Run(const Dataset& dataset, const RunOptions& options, const PipelineH
     const std::function<bool()> map_stop = [&] {
       return !selection_interrupted && hooks.stop && hooks.stop();
     };
-    LoadSelectedFrames(dataset, run.map_frames, run.pipeline.selection.selected, run.pipeline.T_w_c,
+    LoadSelectedFrames(dataset, first_loadable, run.pipeline.selection.selected, run.pipeline.T_w_c,
                        used.range_cloud, map_workers, &*run.map, nullptr, map_stop,
                        &run.stopped_after_selection, &run.warnings);
     run.map_seconds += SecondsSince(map_start);

@@ -85,9 +85,10 @@ RunResult RunOnDataset(const Dataset& dataset, const RunOptions& options,
 // The same, going on from the saved map `dataset` continues: the filter resumes from the map's
 // state, its keyframes are base frames from the start, and new keyframes and features join
 // them, so that the result (and its saved map) is one map of both sessions. The outputs cover
-// the map's keyframes as frames 0 .. map_frames-1 (ContinuedDataset); they are not in the
-// dense map or the depth alignment (a warning). Throws as RunOnDataset, and ConfigError for
-// dead reckoning, which keeps no filter to go on with.
+// the map's keyframes as frames 0 .. map_frames-1 (ContinuedDataset); without their images
+// (ContinuedDataset::map_images) they are left out of the dense map and the depth alignment,
+// with a warning. Throws as RunOnDataset, and ConfigError for dead reckoning, which keeps no
+// filter to go on with.
 RunResult ContinueMapping(const ContinuedDataset& dataset, const RunOptions& options,
                           const PipelineHooks& hooks = {});
 

@@ -106,17 +106,36 @@ void ApplyConfigFile(const std::string& path, RunOptions* options) {
   if (!RunOptions::Registry().Check(*options, &why)) throw ConfigError(path + ": " + why);
 }
 
+namespace {
+
+// Applies the options of `sections` in `config` (`source` names it in errors) to *options.
+void ApplySections(const std::string& config, const std::string& source,
+                   const std::set<std::string>& sections, RunOptions* options) {
+  std::vector<YamlOption> chosen;
+  for (YamlOption& o : ParseYamlOptions(config, source)) {
+    if (sections.count(o.section) > 0) chosen.push_back(std::move(o));
+  }
+  RunOptions::Registry().ApplyOptions(chosen, source, options);
+}
+
+}  // namespace
+
 void ApplyMapFrontEndOptions(const std::string& config, const std::string& source,
                              RunOptions* options) {
   // The source section too: its checks tie it to the registration's (a map made with a raised
   // min_inliers also raised min_inliers_secondary).
-  static const std::set<std::string> kFrontEnd = {"features",     "lifting",  "matching",
-                                                  "registration", "database", "source"};
-  std::vector<YamlOption> front_end;
-  for (YamlOption& o : ParseYamlOptions(config, source)) {
-    if (kFrontEnd.count(o.section) > 0) front_end.push_back(std::move(o));
-  }
-  RunOptions::Registry().ApplyOptions(front_end, source, options);
+  ApplySections(config, source,
+                {"features", "lifting", "matching", "registration", "database", "source"}, options);
+}
+
+DatasetOptions MapDatasetOptions(const std::string& config, const std::string& source) {
+  RunOptions options;
+  ApplySections(config, source, {"dataset"}, &options);
+  const DatasetOptions whole;
+  options.dataset_options.first = whole.first;
+  options.dataset_options.last = whole.last;
+  options.dataset_options.stride = whole.stride;
+  return options.dataset_options;
 }
 
 std::string ConfigYaml(const RunOptions& options) {

@@ -62,6 +62,11 @@ void ApplyConfigFile(const std::string& path, RunOptions* options);
 void ApplyMapFrontEndOptions(const std::string& config, const std::string& source,
                              RunOptions* options);
 
+// The dataset options of `config` (a saved map's options, `source` naming it) over the whole
+// sequence: first, last and stride at their defaults, so that frames are numbered as the
+// dataset numbers them (FrameInfo::source_index).
+DatasetOptions MapDatasetOptions(const std::string& config, const std::string& source);
+
 // `options` as a config file: every settable option with its value and help.
 std::string ConfigYaml(const RunOptions& options);
 

@@ -82,6 +82,14 @@ TEST_F(ContinuedMappingTest, TwoHalvesGiveTheMapOfOneRunWithTheMapsKeyframesFirs
     EXPECT_EQ(continued.dataset.info(k).source_index, half.pipeline.selection.selected[k]);
   }
   EXPECT_EQ(continued.dataset.info(m).source_index, 20);
+  // The mapping run's dataset is where the map says: the map's frames have its images.
+  ASSERT_TRUE(continued.dataset.map_images()) << continued.dataset.map_images_missing();
+  const auto all_frames = OpenDataset((root_ / "first").string(), DatasetOptions());
+  for (int k = 0; k < m; ++k) {
+    const int frame = half.pipeline.selection.selected[k];
+    EXPECT_EQ(continued.dataset.info(k).colour_path, all_frames->info(frame).colour_path);
+    EXPECT_EQ(continued.dataset.info(k).depth_path, all_frames->info(frame).depth_path);
+  }
   const RunResult run = ContinueMapping(continued.dataset, options);
 
   // The map's keyframes come first, with the observations they entered with; new ones follow.
@@ -195,6 +203,34 @@ TEST_F(ContinuedMappingTest, ASecondPassThroughTheRoomJoinsTheFirstPassesMap) {
     const Eigen::Vector3d after = run.pipeline.filter->pose(static_cast<int>(k)).head<3>();
     EXPECT_LT((after - before).norm(), 0.005) << "keyframe " << k;
   }
+}
+
+TEST_F(ContinuedMappingTest, WithoutTheMappingDatasetTheMapsFramesAreLeftOutOfTheDenseMap) {
+  const RunResult half = RunOn(Options(root_ / "first", 0, 19));
+  ASSERT_TRUE(half.saved_map.has_value());
+  RunOptions options = Options(root_ / "first", 20);
+  options.build_map = true;
+  const LoadedMap map = ReadBack(*half.saved_map, root_ / "images_map");
+  LoadedMap moved = map;
+  moved.map.dataset = (root_ / "moved_away").string();
+  const Continued with(map, options), without(moved, options);
+  ASSERT_TRUE(with.dataset.map_images());
+  ASSERT_FALSE(without.dataset.map_images());
+  EXPECT_NE(without.dataset.map_images_missing().find(moved.map.dataset), std::string::npos)
+      << without.dataset.map_images_missing();
+  const RunResult full = ContinueMapping(with.dataset, options);
+  const RunResult part = ContinueMapping(without.dataset, options);
+  // The same estimate; the map's frames are in the dense map only when their images are.
+  EXPECT_EQ(full.keyframes.size(), part.keyframes.size());
+  ASSERT_TRUE(full.map.has_value() && part.map.has_value());
+  EXPECT_GT(full.map->size(), part.map->size());
+  const auto left_out = [](const RunResult& r) {
+    return std::count_if(r.warnings.begin(), r.warnings.end(), [](const std::string& w) {
+      return w.find("keyframes are left out of the map") != std::string::npos;
+    });
+  };
+  EXPECT_EQ(left_out(full), 0);
+  EXPECT_EQ(left_out(part), 1);
 }
 
 TEST_F(ContinuedMappingTest, DeadReckoningHasNoFilterToGoOnWith) {
