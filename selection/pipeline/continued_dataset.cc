@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <memory>
 #include <stdexcept>
 #include <unordered_map>
@@ -36,7 +37,7 @@ ContinuedDataset::ContinuedDataset(const LoadedMap& map, const Dataset& next,
     }
     FrameInfo info;
     info.index = static_cast<int>(k);
-    info.source_index = keyframe.source_index;
+    info.source_index = keyframe.origin.source_index;
     info.timestamp = keyframe.timestamp;
     if (keyframe.has_ground_truth) info.T_w_c_gt = PoseToIsometry(keyframe.ground_truth);
     frames_.push_back(info);
@@ -60,34 +61,51 @@ ContinuedDataset::ContinuedDataset(const LoadedMap& map, const Dataset& next,
 
 void ContinuedDataset::FindMapImages() {
   const SavedMap& map = map_.map;
-  std::unique_ptr<Dataset> mapping;
-  try {
-    mapping = OpenDataset(map.dataset, MapDatasetOptions(map.options, map_.file()));
-  } catch (const std::runtime_error& e) {
-    map_images_missing_ = "its dataset " + map.dataset + " cannot be opened: " + e.what();
-    return;
-  }
-  if (FormatCalibration(mapping->rig()) != map.calibration) {
-    map_images_missing_ = "its dataset " + map.dataset + " has another calibration now";
-    return;
-  }
-  std::vector<std::pair<std::string, std::string>> paths;
-  for (const MapKeyframe& k : map.keyframes) {
-    // A frame read again from the same files has the same timestamp.
-    if (k.source_index < 0 || k.source_index >= mapping->size() ||
-        std::abs(mapping->info(k.source_index).timestamp - k.timestamp) > 1e-6) {
-      map_images_missing_ = "its dataset " + map.dataset + " holds no frame " +
-                            std::to_string(k.source_index) + " at " + std::to_string(k.timestamp) +
-                            " s";
-      return;
+  map_images_.assign(map.keyframes.size(), false);
+  std::map<std::string, std::vector<int>> by_dataset;  // origin -> its keyframes
+  for (int k = 0; k < map_frames(); ++k) by_dataset[map.keyframes[k].origin.dataset].push_back(k);
+  for (const auto& [directory, keyframes] : by_dataset) {
+    const auto missing = [&, dir = directory](const std::string& why) {
+      map_images_missing_ += (map_images_missing_.empty() ? "" : "; ") + dir + ": " + why;
+    };
+    std::unique_ptr<Dataset> origin;
+    try {
+      origin = OpenDataset(directory, MapDatasetOptions(map.options, map_.file()));
+    } catch (const std::runtime_error& e) {
+      missing(std::string("cannot be opened: ") + e.what());
+      continue;
     }
-    const FrameInfo& info = mapping->info(k.source_index);
-    paths.emplace_back(info.colour_path, info.depth_path);
+    if (FormatCalibration(origin->rig()) != map.calibration) {
+      missing("another calibration than the map's");
+      continue;
+    }
+    int absent = 0;
+    for (const int k : keyframes) {
+      const FrameOrigin& o = map.keyframes[k].origin;
+      // A frame read again from the same files has the same timestamp.
+      if (o.source_index < 0 || o.source_index >= origin->size() ||
+          std::abs(origin->info(o.source_index).timestamp - o.timestamp) > 1e-6) {
+        ++absent;
+        continue;
+      }
+      frames_[k].colour_path = origin->info(o.source_index).colour_path;
+      frames_[k].depth_path = origin->info(o.source_index).depth_path;
+      map_images_[k] = true;
+    }
+    if (absent > 0) {
+      missing("no frame at the timestamps of " + std::to_string(absent) + " of its " +
+              std::to_string(keyframes.size()) + " keyframes");
+    }
   }
-  for (size_t k = 0; k < paths.size(); ++k) {
-    frames_[k].colour_path = paths[k].first;
-    frames_[k].depth_path = paths[k].second;
-  }
+}
+
+int ContinuedDataset::map_frames_without_images() const {
+  return static_cast<int>(std::count(map_images_.begin(), map_images_.end(), false));
+}
+
+FrameOrigin ContinuedDataset::origin(int frame) const {
+  if (frame < map_frames()) return map_.map.keyframes[frame].origin;
+  return OriginIn(*this, frame, timestamp_shift_s_);
 }
 
 void ContinuedDataset::AddBaseFrames(RgbdFrameSource* source) const {

@@ -2,10 +2,9 @@
 // frames, as one dataset, and what the pipeline resumes from.
 //
 // Frame k < map_frames() is the map's keyframe k (keyframes enter a map in time order), with
-// the timestamp, dataset index and ground truth the map keeps, and its images when the mapping
-// run's dataset is where the map says (map_images()). Frames map_frames() .. are the dataset's,
-// in its order. Numbered that way, every frame of the continued run is one index of one
-// dataset, as a run's outputs expect.
+// the timestamp and ground truth the map keeps, and its images where its origin is still there
+// (has_images). Frames map_frames() .. are the dataset's, in its order. Numbered that way,
+// every frame of the continued run is one index of one dataset, as a run's outputs expect.
 #pragma once
 
 #include <string>
@@ -33,11 +32,16 @@ class ContinuedDataset : public Dataset {
   const LoadedMap& map() const { return map_; }
   // Seconds added to the dataset's timestamps (0 unless shifted).
   double timestamp_shift_s() const { return timestamp_shift_s_; }
-  // True when the map's frames have their images: the mapping run's dataset (SavedMap::dataset,
-  // opened with the map's dataset options) is there, with the map's calibration, and holds
-  // each keyframe's frame at its timestamp. Otherwise why not, for a warning.
-  bool map_images() const { return map_images_missing_.empty(); }
+  // Whether frame `frame` has its images: every frame of the dataset, and each map keyframe
+  // whose origin (FrameOrigin: opened with the map's dataset options) is there, with the map's
+  // calibration, and holds the keyframe's frame at its timestamp. The constructor opens each
+  // origin dataset once to find out.
+  bool has_images(int frame) const { return frame >= map_frames() || map_images_[frame]; }
+  int map_frames_without_images() const;
+  // Why map keyframes have no images (one reason per dataset), or empty.
   const std::string& map_images_missing() const { return map_images_missing_; }
+  // Where frame `frame` came from, for the map a continued run saves.
+  FrameOrigin origin(int frame) const;
 
   // The map's keyframes into `source` as its base frames, and the map's feature ids as taken.
   void AddBaseFrames(RgbdFrameSource* source) const;
@@ -48,10 +52,10 @@ class ContinuedDataset : public Dataset {
   const LoadedMap& map_;
   std::string format_;
   double timestamp_shift_s_ = 0.0;
+  std::vector<bool> map_images_;  // per map keyframe
   std::string map_images_missing_;
 
-  // The image paths of the map's frames from the mapping run's dataset, or the reason in
-  // map_images_missing_.
+  // The image paths of the map's frames from their origins, and the reasons for those not found.
   void FindMapImages();
 };
 

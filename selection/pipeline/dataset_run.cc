@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <deque>
+#include <filesystem>
 #include <functional>
 #include <future>
 
@@ -88,9 +89,10 @@ std::string FrameUses(bool map, bool alignment) {
 // no cloud, is left out with a warning. Stops early, setting *stopped, once `stop` (when
 // set) says so. With workers > 0 that many threads load frames (decoding, points, clouds)
 // ahead of the caller, who adds them to the map in the given order: the same map as one
-// thread gives. Frames before `first_frame` (a saved map's keyframes, when their images are
-// not at hand) are left out.
-void LoadSelectedFrames(const Dataset& dataset, int first_frame, const std::vector<int>& frames,
+// thread gives. Frames `has_images` (when set) says have none (a saved map's keyframes whose
+// dataset is gone) are left out.
+void LoadSelectedFrames(const Dataset& dataset, const std::function<bool(int)>& has_images,
+                        const std::vector<int>& frames,
                         const std::vector<std::optional<Eigen::Isometry3d>>& T_w_c,
                         const RangeCloudOptions& cloud_options, int workers, DenseMap* map,
                         RangeClouds* clouds, const std::function<bool()>& stop, bool* stopped,
@@ -98,7 +100,7 @@ void LoadSelectedFrames(const Dataset& dataset, int first_frame, const std::vect
   const std::string uses = FrameUses(map != nullptr, clouds != nullptr);
   std::vector<int> placed;
   for (const int frame : frames) {
-    if (frame >= first_frame && T_w_c[frame]) placed.push_back(frame);
+    if (T_w_c[frame] && (!has_images || has_images(frame))) placed.push_back(frame);
   }
   if (placed.empty()) return;
   const RangeRays rays(dataset.rig().range);
@@ -192,16 +194,20 @@ std::function<void(const SelectionResult&, const InformationFilter&)> TakingBase
 
 // run->saved_map from the base frames, or a warning when they are incomplete; its time and
 // the hand-over's in run->map_seconds.
-void SaveMap(const Dataset& dataset, const RunOptions& used, TakenBaseFrames taken,
-             RunResult* run) {
+void SaveMap(const Dataset& dataset, const ContinuedDataset* continued, const RunOptions& used,
+             TakenBaseFrames taken, RunResult* run) {
   const auto start = std::chrono::steady_clock::now();
   if (taken.complete) {
     const PipelineResult& p = run->pipeline;
+    // A later session reads the calibration file again from wherever it runs.
+    RunOptions saved = used;
+    std::string& calib = saved.dataset_options.calib_file;
+    if (!calib.empty()) calib = std::filesystem::absolute(calib).lexically_normal().string();
     run->saved_map = MakeSavedMap(*p.filter, p.estimate, std::move(taken.frames),
                                   p.selection.observations, p.refinement ? &*p.refinement : nullptr,
-                                  dataset.rig(), ConfigYaml(used), used.dataset);
+                                  dataset.rig(), ConfigYaml(saved), used.dataset);
     for (MapKeyframe& k : run->saved_map->keyframes) {
-      k.source_index = dataset.info(k.frame).source_index;
+      k.origin = continued != nullptr ? continued->origin(k.frame) : OriginIn(dataset, k.frame);
       const auto& gt = dataset.info(k.frame).T_w_c_gt;
       k.has_ground_truth = gt.has_value();
       if (gt) k.ground_truth = IsometryToPose(*gt);
@@ -244,11 +250,12 @@ PipelineResume StartFromMap(const ContinuedDataset& continued, const RunOptions&
   run->continued_map_file = continued.map().file();
   run->map_load_seconds = continued.map().load_seconds;
   const bool align = used.pipeline.refine && used.pipeline.depth_alignment.rounds > 0;
-  if (!continued.map_images() && (used.build_map || align)) {
-    run->warnings.push_back("the saved map's " + std::to_string(run->map_frames) +
-                            " keyframes are left out of " + FrameUses(used.build_map, align) +
-                            ": their images are not at hand (" + continued.map_images_missing() +
-                            ")");
+  const int without = continued.map_frames_without_images();
+  if (without > 0 && (used.build_map || align)) {
+    run->warnings.push_back(std::to_string(without) + " of the saved map's " +
+                            std::to_string(run->map_frames) + " keyframes are left out of " +
+                            FrameUses(used.build_map, align) + ": their images are not at hand (" +
+                            continued.map_images_missing() + ")");
   }
   return continued.Resume();
 }
@@ -264,10 +271,8 @@ RunResult Run(const Dataset& dataset, const RunOptions& options, const PipelineH
   if (options.threads > 0) cv::setNumThreads(std::min(options.threads, WorkerThreads(0)));
   const RunOptions used = options.Resolved();
   RgbdFrameSource source(dataset, used.source, continued != nullptr ? continued->map_frames() : 0);
-  // The frames whose images the map and the depth alignment can load: all but a saved map's
-  // keyframes whose images are not at hand.
-  const int first_loadable =
-      continued != nullptr && !continued->map_images() ? continued->map_frames() : 0;
+  std::function<bool(int)> has_images;
+  if (continued != nullptr) has_images = [continued](int f) { return continued->has_images(f); };
   PipelineResume resume;
   if (continued != nullptr) resume = StartFromMap(*continued, used, &source, &run);
   if (used.build_map) run.map.emplace(used.map);
@@ -289,7 +294,7 @@ RunResult Run(const Dataset& dataset, const RunOptions& options, const PipelineH
   const RangeCloudLoader clouds = [&](const std::vector<int>& frames,
                                       const std::vector<std::optional<Eigen::Isometry3d>>& T_w_c) {
     RangeClouds loaded;
-    LoadSelectedFrames(dataset, first_loadable, frames, T_w_c, used.range_cloud, map_workers,
+    LoadSelectedFrames(dataset, has_images, frames, T_w_c, used.range_cloud, map_workers,
                        run.map ? &*run.map : nullptr, &loaded, loader_stop,
                        &run.stopped_after_selection, &run.warnings);
     map_built = true;
@@ -304,7 +309,8 @@ RunResult Run(const Dataset& dataset, const RunOptions& options, const PipelineH
   run.pipeline = RunPipeline(&source, dataset.rig().colour, used.pipeline, pipeline_hooks, clouds,
                              continued != nullptr ? &resume : nullptr);
   run.frontend = source.timings();
-  if (used.save_map && run.pipeline.has_estimate) SaveMap(dataset, used, std::move(taken), &run);
+  if (used.save_map && run.pipeline.has_estimate)
+    SaveMap(dataset, continued, used, std::move(taken), &run);
   const auto evaluation_start = std::chrono::steady_clock::now();
   CollectTrajectories(dataset, &run);
   run.evaluation_seconds = SecondsSince(evaluation_start);
@@ -314,7 +320,7 @@ RunResult Run(const Dataset& dataset, const RunOptions& options, const PipelineH
     const std::function<bool()> map_stop = [&] {
       return !selection_interrupted && hooks.stop && hooks.stop();
     };
-    LoadSelectedFrames(dataset, first_loadable, run.pipeline.selection.selected, run.pipeline.T_w_c,
+    LoadSelectedFrames(dataset, has_images, run.pipeline.selection.selected, run.pipeline.T_w_c,
                        used.range_cloud, map_workers, &*run.map, nullptr, map_stop,
                        &run.stopped_after_selection, &run.warnings);
     run.map_seconds += SecondsSince(map_start);

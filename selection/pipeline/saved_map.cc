@@ -51,7 +51,9 @@ std::string WriteKeyframes(const SavedMap& map) {
   w.U64(map.keyframes.size());
   for (const MapKeyframe& k : map.keyframes) {
     w.I32(k.frame);
-    w.I32(k.source_index);
+    w.String(k.origin.dataset);
+    w.I32(k.origin.source_index);
+    w.F64(k.origin.timestamp);
     w.F64(k.timestamp);
     WriteMatrix(k.pose, &w);
     WriteMatrix(k.covariance, &w);
@@ -158,11 +160,13 @@ void ReadMeta(SectionReader* r, SavedMap* map) {
 }
 
 void ReadKeyframes(SectionReader* r, SavedMap* map) {
-  const size_t n = r->Count(4 + 4 + 8 + 6 * 8 + 36 * 8 + 1 + 6 * 8 + 1 + 6 * 8 + 8);
+  const size_t n = r->Count(4 + 8 + 4 + 8 + 8 + 6 * 8 + 36 * 8 + 1 + 6 * 8 + 1 + 6 * 8 + 8);
   map->keyframes.resize(n);
   for (MapKeyframe& k : map->keyframes) {
     k.frame = r->I32();
-    k.source_index = r->I32();
+    k.origin.dataset = r->String();
+    k.origin.source_index = r->I32();
+    k.origin.timestamp = r->F64();
     k.timestamp = r->F64();
     ReadMatrix(r, &k.pose);
     ReadMatrix(r, &k.covariance);
@@ -433,6 +437,14 @@ std::string FindMapDirectory(const std::string& dir) {
     return JoinPath(dir, kMapDirectory);
   }
   return dir;
+}
+
+FrameOrigin OriginIn(const Dataset& dataset, int frame, double shift_s) {
+  FrameOrigin origin;
+  origin.dataset = std::filesystem::absolute(dataset.directory()).lexically_normal().string();
+  origin.source_index = dataset.info(frame).source_index;
+  origin.timestamp = dataset.info(frame).timestamp - shift_s;
+  return origin;
 }
 
 ProcessedFrame ProcessedBaseFrame(const MapBaseFrame& base, const FrameInfo& info) {

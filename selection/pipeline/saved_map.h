@@ -47,10 +47,19 @@ struct MapBaseFrame {
   std::vector<int64_t> feature_ids;
 };
 
-struct MapKeyframe {
-  int frame = -1;         // its index in the mapping run's frames
-  int source_index = -1;  // its index in the mapping dataset (FrameInfo::source_index)
+// Where a keyframe's frame came from, so that a later session can read its images again: the
+// dataset's directory (absolute), the frame's index there (FrameInfo::source_index) and its
+// timestamp there (before any shift a continued run applied).
+struct FrameOrigin {
+  std::string dataset;
+  int source_index = -1;
   double timestamp = 0.0;
+};
+
+struct MapKeyframe {
+  int frame = -1;  // its index in the mapping run's frames
+  FrameOrigin origin;
+  double timestamp = 0.0;                    // in the mapping run
   Vector6d pose = Vector6d::Zero();          // the filter's, camera-to-world (core/pose.h)
   Matrix6d covariance = Matrix6d::Zero();    // its marginal covariance
   bool refined = false;                      // the run was refined
@@ -78,7 +87,7 @@ struct SavedMap {
   std::string version;                    // of the ieslam that wrote it
   std::string calibration;                // FormatCalibration of the rig
   std::string options;                    // the run's options as a config file
-  std::string dataset;                    // the mapping run's dataset, as its report names it
+  std::string dataset;                    // the last mapping run's dataset, as its report names it
   std::vector<MapKeyframe> keyframes;     // in the order they entered the filter
   std::vector<MapFeature> features;       // in the order they entered the filter
   std::vector<MapBaseFrame> base_frames;  // one per keyframe, in the same order
@@ -121,6 +130,10 @@ struct LoadedMap {
 
 // FindMapDirectory(path), then ReadSavedMap, timed. Throws as ReadSavedMap.
 LoadedMap LoadMap(const std::string& path);
+
+// Frame `frame` of `dataset` as a keyframe's origin, its timestamp less `shift_s` (what a
+// continued run added to the dataset's).
+FrameOrigin OriginIn(const Dataset& dataset, int frame, double shift_s = 0.0);
 
 // The base frame as the front end holds it, as frame `info`.
 ProcessedFrame ProcessedBaseFrame(const MapBaseFrame& base, const FrameInfo& info);

@@ -83,7 +83,8 @@ TEST_F(ContinuedMappingTest, TwoHalvesGiveTheMapOfOneRunWithTheMapsKeyframesFirs
   }
   EXPECT_EQ(continued.dataset.info(m).source_index, 20);
   // The mapping run's dataset is where the map says: the map's frames have its images.
-  ASSERT_TRUE(continued.dataset.map_images()) << continued.dataset.map_images_missing();
+  ASSERT_EQ(continued.dataset.map_frames_without_images(), 0)
+      << continued.dataset.map_images_missing();
   const auto all_frames = OpenDataset((root_ / "first").string(), DatasetOptions());
   for (int k = 0; k < m; ++k) {
     const int frame = half.pipeline.selection.selected[k];
@@ -151,7 +152,9 @@ TEST_F(ContinuedMappingTest, AContinuedMapReadsBackAndGoesOnAgain) {
     const int frame = two.pipeline.selection.selected[k];
     const int in_dataset = frame < two.map_frames ? third.pipeline.selection.selected[frame]
                                                   : 14 + frame - two.map_frames;
-    EXPECT_EQ(second_map.map.keyframes[k].source_index, in_dataset) << "keyframe " << k;
+    const FrameOrigin& origin = second_map.map.keyframes[k].origin;
+    EXPECT_EQ(origin.source_index, in_dataset) << "keyframe " << k;
+    EXPECT_EQ(origin.dataset, (root_ / "first").lexically_normal().string());
   }
   const RunOptions last = Options(root_ / "first", 27);
   const RunResult all = ContinueMapping(Continued(second_map, last).dataset, last);
@@ -197,6 +200,26 @@ TEST_F(ContinuedMappingTest, ASecondPassThroughTheRoomJoinsTheFirstPassesMap) {
   ASSERT_GE(run.ate_keyframes_m, 0.0);
   EXPECT_LT(run.ate_keyframes_m, 0.01);
   EXPECT_GT(run.pipeline.selection.selected.size(), map.map.keyframes.size());
+  // The joined map remembers where each keyframe came from, before the shift, so that both
+  // passes' images are found again.
+  ASSERT_TRUE(run.saved_map.has_value());
+  const LoadedMap joined = ReadBack(*run.saved_map, root_ / "joined_map");
+  const int m = static_cast<int>(map.map.keyframes.size());
+  for (size_t k = 0; k < joined.map.keyframes.size(); ++k) {
+    const FrameOrigin& o = joined.map.keyframes[k].origin;
+    const fs::path from = root_ / (static_cast<int>(k) < m ? "first" : "second");
+    EXPECT_EQ(o.dataset, from.lexically_normal().string()) << "keyframe " << k;
+    if (static_cast<int>(k) >= m) {
+      EXPECT_NEAR(o.timestamp + continued.timestamp_shift_s(), joined.map.keyframes[k].timestamp,
+                  1e-9);
+    }
+  }
+  const RunOptions again = Options(root_ / "first", 0, 4);
+  const Continued third(joined, again);
+  EXPECT_EQ(third.dataset.map_frames_without_images(), 0) << third.dataset.map_images_missing();
+  const std::string second_image = third.dataset.info(m).colour_path;
+  EXPECT_NE(second_image.find("second"), std::string::npos) << second_image;
+
   // The map's keyframes move only by what the second pass tells about them.
   for (size_t k = 0; k < map.map.keyframes.size(); ++k) {
     const Eigen::Vector3d before = map.map.keyframes[k].pose.head<3>();
@@ -211,26 +234,59 @@ TEST_F(ContinuedMappingTest, WithoutTheMappingDatasetTheMapsFramesAreLeftOutOfTh
   RunOptions options = Options(root_ / "first", 20);
   options.build_map = true;
   const LoadedMap map = ReadBack(*half.saved_map, root_ / "images_map");
-  LoadedMap moved = map;
-  moved.map.dataset = (root_ / "moved_away").string();
-  const Continued with(map, options), without(moved, options);
-  ASSERT_TRUE(with.dataset.map_images());
-  ASSERT_FALSE(without.dataset.map_images());
-  EXPECT_NE(without.dataset.map_images_missing().find(moved.map.dataset), std::string::npos)
+  const int m = static_cast<int>(map.map.keyframes.size());
+  ASSERT_GE(m, 2);
+  const std::string gone = (root_ / "moved_away").string();
+  LoadedMap moved = map, one_moved = map, shifted = map;
+  for (MapKeyframe& k : moved.map.keyframes) k.origin.dataset = gone;
+  one_moved.map.keyframes[1].origin.dataset = gone;
+  shifted.map.keyframes[0].origin.timestamp += 0.5;  // the dataset has no frame there
+  const Continued with(map, options), without(moved, options), one(one_moved, options),
+      elsewhere(shifted, options);
+  EXPECT_EQ(with.dataset.map_frames_without_images(), 0);
+  EXPECT_EQ(without.dataset.map_frames_without_images(), m);
+  EXPECT_EQ(one.dataset.map_frames_without_images(), 1);
+  EXPECT_FALSE(one.dataset.has_images(1));
+  EXPECT_TRUE(one.dataset.has_images(0));
+  EXPECT_EQ(elsewhere.dataset.map_frames_without_images(), 1);
+  EXPECT_FALSE(elsewhere.dataset.has_images(0));
+  EXPECT_NE(without.dataset.map_images_missing().find(gone), std::string::npos)
       << without.dataset.map_images_missing();
+  EXPECT_NE(elsewhere.dataset.map_images_missing().find("1 of its"), std::string::npos)
+      << elsewhere.dataset.map_images_missing();
   const RunResult full = ContinueMapping(with.dataset, options);
-  const RunResult part = ContinueMapping(without.dataset, options);
+  const RunResult part = ContinueMapping(one.dataset, options);
+  const RunResult none = ContinueMapping(without.dataset, options);
   // The same estimate; the map's frames are in the dense map only when their images are.
-  EXPECT_EQ(full.keyframes.size(), part.keyframes.size());
-  ASSERT_TRUE(full.map.has_value() && part.map.has_value());
+  EXPECT_EQ(full.keyframes.size(), none.keyframes.size());
+  ASSERT_TRUE(full.map.has_value() && part.map.has_value() && none.map.has_value());
   EXPECT_GT(full.map->size(), part.map->size());
+  EXPECT_GT(part.map->size(), none.map->size());
   const auto left_out = [](const RunResult& r) {
-    return std::count_if(r.warnings.begin(), r.warnings.end(), [](const std::string& w) {
-      return w.find("keyframes are left out of the map") != std::string::npos;
-    });
+    std::string found;
+    for (const std::string& w : r.warnings) {
+      if (w.find("keyframes are left out of the map") != std::string::npos) found += w;
+    }
+    return found;
   };
-  EXPECT_EQ(left_out(full), 0);
-  EXPECT_EQ(left_out(part), 1);
+  EXPECT_EQ(left_out(full), "");
+  EXPECT_EQ(left_out(part).rfind("1 of the saved map's", 0), 0u) << left_out(part);
+  EXPECT_EQ(left_out(none).rfind(std::to_string(m) + " of the saved map's", 0), 0u)
+      << left_out(none);
+}
+
+TEST_F(ContinuedMappingTest, ARelativeDatasetPathIsSavedAsAnAbsoluteOne) {
+  const fs::path before = fs::current_path();
+  fs::current_path(root_);
+  const RunResult run = RunOn(Options("first", 0, 9));
+  fs::current_path(before);
+  ASSERT_TRUE(run.saved_map.has_value());
+  for (const MapKeyframe& k : run.saved_map->keyframes) {
+    EXPECT_EQ(k.origin.dataset, (root_ / "first").lexically_normal().string());
+  }
+  // From elsewhere, the map's frames still have their images.
+  const LoadedMap map = ReadBack(*run.saved_map, root_ / "relative_map");
+  EXPECT_EQ(Continued(map, Options(root_ / "first", 10)).dataset.map_frames_without_images(), 0);
 }
 
 TEST_F(ContinuedMappingTest, DeadReckoningHasNoFilterToGoOnWith) {

@@ -39,7 +39,9 @@ void ExpectSameMap(const SavedMap& a, const SavedMap& b) {
   for (size_t k = 0; k < a.keyframes.size(); ++k) {
     const MapKeyframe &x = a.keyframes[k], &y = b.keyframes[k];
     EXPECT_EQ(x.frame, y.frame);
-    EXPECT_EQ(x.source_index, y.source_index);
+    EXPECT_EQ(x.origin.dataset, y.origin.dataset);
+    EXPECT_EQ(x.origin.source_index, y.origin.source_index);
+    EXPECT_EQ(x.origin.timestamp, y.origin.timestamp);
     EXPECT_EQ(x.timestamp, y.timestamp);
     EXPECT_TRUE(SameBits(x.pose, y.pose) && SameBits(x.covariance, y.covariance));
     EXPECT_EQ(x.refined, y.refined);
@@ -147,7 +149,9 @@ TEST_F(SavedMapTest, HoldsTheFiltersEstimateTheRefinedPosesAndTheGroundTruth) {
     EXPECT_EQ(k.covariance, filter.PoseCovariance(k.frame));
     EXPECT_TRUE(k.refined);
     EXPECT_EQ(k.refined_pose, refined.poses.at(k.frame));
-    EXPECT_EQ(k.source_index, dataset_->info(k.frame).source_index);
+    EXPECT_EQ(k.origin.source_index, dataset_->info(k.frame).source_index);
+    EXPECT_EQ(k.origin.timestamp, dataset_->info(k.frame).timestamp);
+    EXPECT_TRUE(std::filesystem::path(k.origin.dataset).is_absolute()) << k.origin.dataset;
     const auto& gt = dataset_->info(k.frame).T_w_c_gt;
     ASSERT_TRUE(gt.has_value());
     EXPECT_TRUE(k.has_ground_truth);
