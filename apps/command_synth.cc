@@ -17,6 +17,9 @@ int SynthCommand(const CommandArgs& args) {
        "rgbd (640x480 registered colour + depth, TUM layout) or pair (1024x768 "
        "camera + 176x144 range imager, pair layout) (default rgbd)"},
       {"seed", "S", "scene seed; the sensor noise is seeded with S + 1 (default 1)"},
+      {"readout", "SECONDS",
+       "rgbd: a rolling shutter reading its rows in this time, first to last (default 0: a "
+       "global shutter); calib.yaml carries it"},
       {"threads", "N", "rendering threads, 0 = all cores; never changes the output (default 0)"}};
   const Flags flags(args, specs);
   if (flags.help()) {
@@ -34,6 +37,7 @@ int SynthCommand(const CommandArgs& args) {
   options.scene.seed = static_cast<uint32_t>(seed);
   options.noise_seed = static_cast<uint32_t>(seed) + 1;
   options.threads = flags.GetInt("threads", 0, 0, 256);
+  options.readout_s = flags.GetDouble("readout", 0.0, -0.2, 0.2);
   std::string why;
   if (!options.Check(&why)) throw ConfigError(why);
   PrepareOutputDirectory(output);

@@ -1,5 +1,7 @@
 #include "apps/flags.h"
 
+#include <cerrno>
+#include <cmath>
 #include <cstdlib>
 #include <sstream>
 
@@ -74,6 +76,23 @@ int Flags::GetInt(const std::string& name, int fallback, int min, int max) const
                       std::to_string(max) + "], got " + it->second);
   }
   return static_cast<int>(value);
+}
+
+double Flags::GetDouble(const std::string& name, double fallback, double min, double max) const {
+  const auto it = values_.find(name);
+  if (it == values_.end()) return fallback;
+  char* end = nullptr;
+  errno = 0;
+  const double value = std::strtod(it->second.c_str(), &end);
+  if (it->second.empty() || *end != '\0' || errno == ERANGE || !std::isfinite(value)) {
+    throw ConfigError("--" + name + " must be a number, got '" + it->second + "'");
+  }
+  if (value < min || value > max) {
+    std::ostringstream range;
+    range << "--" << name << " must be in [" << min << ", " << max << "], got " << it->second;
+    throw ConfigError(range.str());
+  }
+  return value;
 }
 
 std::vector<int> Flags::GetIntList(const std::string& name, const std::vector<int>& fallback,

@@ -26,6 +26,8 @@ class Flags {
   // Throws ConfigError unless the flag was given.
   std::string Require(const std::string& name) const;
   int GetInt(const std::string& name, int fallback, int min, int max) const;
+  // A finite number in [min, max].
+  double GetDouble(const std::string& name, double fallback, double min, double max) const;
   // Comma-separated integers, e.g. --buffers 2,3,4,5.
   std::vector<int> GetIntList(const std::string& name, const std::vector<int>& fallback, int min,
                               int max) const;

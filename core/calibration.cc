@@ -286,8 +286,14 @@ Rig RigFromYaml(const cv::FileStorage& fs, const std::string& source) {
   // measurement.
   root.InRange("pixel_sigma", rig.pixel_sigma, 0.01, 100.0);
   const Section colour = root.Map("colour");
-  colour.OnlyKeys({std::begin(kIntrinsicKeys), std::end(kIntrinsicKeys)});
+  std::set<std::string> colour_keys(std::begin(kIntrinsicKeys), std::end(kIntrinsicKeys));
+  colour_keys.insert("readout_s");
+  colour.OnlyKeys(colour_keys);
   rig.colour = ReadIntrinsics(colour);
+  if (colour.Has("readout_s")) {
+    rig.colour_readout_s = colour.Number("readout_s");
+    colour.InRange("readout_s", rig.colour_readout_s, -0.2, 0.2);
+  }
   rig.range = ReadRange(root.Map("range"), rig.colour, rig.registered);
   if (!rig.registered || root.Has("T_colour_range")) {
     rig.T_colour_range = ReadExtrinsics(root);
@@ -327,6 +333,8 @@ std::string FormatCalibration(const Rig& rig) {
   fs << "colour"
      << "{";
   WriteIntrinsics(fs, rig.colour);
+  // Written only for a rolling shutter, so that a global-shutter rig's text stays as it was.
+  if (rig.colour_readout_s != 0.0) fs << "readout_s" << rig.colour_readout_s;
   fs << "}";
   fs << "range"
      << "{";

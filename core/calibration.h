@@ -16,6 +16,7 @@
 //     cx: 318.6
 //     cy: 255.3
 //     distortion: [k1, k2, p1, p2, k3]    # OpenCV order
+//     readout_s: 0.025       # optional: rolling shutter, first to last row (Rig::colour_readout_s)
 //   range:
 //     width, height, fx, fy, cx, cy, distortion   # may be omitted when registered: 1
 //                                                 # (if given they must equal colour's)

@@ -116,6 +116,11 @@ bool Rig::Check(std::string* why) const {
   if (!(pixel_sigma > 0.0) || !std::isfinite(pixel_sigma)) {
     return Fail(why, "pixel_sigma must be positive, got " + std::to_string(pixel_sigma));
   }
+  // A rolling shutter reads its rows within one frame period; 0.2 s is a 5 Hz camera's.
+  if (!(std::fabs(colour_readout_s) <= 0.2)) {
+    return Fail(
+        why, "colour readout time must be within +-0.2 s, got " + std::to_string(colour_readout_s));
+  }
   if (registered && (colour.width != range.camera.width || colour.height != range.camera.height)) {
     return Fail(why, "registered rig needs equal colour and range resolutions");
   }

@@ -118,6 +118,17 @@ struct Rig {
   bool registered = false;
   // Standard deviation of a keypoint's image position, pixels.
   double pixel_sigma = 1.0;
+  // Rolling shutter: seconds from the exposure of the colour image's first row to that of its
+  // last (negative: read bottom to top); 0 is a global shutter. A frame's timestamp is taken
+  // as the time of its middle row. A registered range image is taken as exposed row by row
+  // with the colour image (the depth a keypoint lifts through is of its row's time).
+  double colour_readout_s = 0.0;
+
+  // The exposure time of a colour pixel row (distorted pixel coordinates, row centres at
+  // integers), relative to the frame's timestamp.
+  double RowTimeOffset(double row) const {
+    return ((row + 0.5) / colour.height - 0.5) * colour_readout_s;
+  }
 
   bool Check(std::string* why) const;
 };

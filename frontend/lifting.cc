@@ -44,6 +44,19 @@ const OptionTable<LiftingOptions>& LiftingOptions::Table() {
   return *table;
 }
 
+LiftedPoint LiftedPointAt(const Eigen::Vector3d& p_c, const Rig& rig) {
+  CHECK_GT(p_c.z(), 0.0);
+  LiftedPoint point;
+  point.valid = true;
+  point.p_c = p_c;
+  const double range = p_c.norm();
+  point.z = Eigen::Vector3d(rig.colour.fx * p_c.x() / p_c.z() + rig.colour.cx,
+                            rig.colour.fy * p_c.y() / p_c.z() + rig.colour.cy, range);
+  point.Q = ObservationCovariance(rig.pixel_sigma, rig.range.noise, range);
+  point.p_c_covariance = BackProjectedCovariance(p_c, point.Q, rig.colour);
+  return point;
+}
+
 FeatureLifter::FeatureLifter(const Rig& rig, const LiftingOptions& options)
     : rig_(rig), options_(options), T_range_colour_(rig.T_colour_range.inverse()) {
   std::string why;

@@ -54,6 +54,10 @@ struct LiftedPoint {
   Eigen::Matrix3d p_c_covariance = Eigen::Matrix3d::Identity();
 };
 
+// The lifted point at p_c (colour camera frame, z > 0): its observation (u, v, d) is p_c's
+// undistorted projection and range, Q and p_c_covariance those of the rig's noise model there.
+LiftedPoint LiftedPointAt(const Eigen::Vector3d& p_c, const Rig& rig);
+
 class FeatureLifter {
  public:
   // Throws ConfigError for options failing Check() or a rig failing Rig::Check().

@@ -50,6 +50,9 @@ const OptionTable<RgbdSourceOptions>& RgbdSourceOptions::Table() {
         .Min(0);
     t->Int("min_inliers_secondary", &O::min_inliers_secondary,
            "inliers another base frame's observations need");
+    t->Double("velocity_max_step_s", &O::velocity_max_step_s,
+              "rolling shutter: frames further apart in time give no velocity")
+        .Above(0.0);
     t->Require([](const O& o) {
       return o.min_inliers_secondary >= o.frontend.registration.min_inliers
                  ? std::string()
@@ -74,6 +77,12 @@ RgbdFrameSource::RgbdFrameSource(const Dataset& dataset, const RgbdSourceOptions
       prefetcher_(dataset, processor_, options.prefetch, first_prepared) {
   std::string why;
   if (!options.Check(&why)) throw ConfigError(why);
+  if (dataset.rig().colour_readout_s != 0.0) {
+    std::vector<double> timestamps;
+    for (int i = 0; i < dataset.size(); ++i) timestamps.push_back(dataset.info(i).timestamp);
+    velocities_ =
+        std::make_unique<FrameVelocities>(std::move(timestamps), options.velocity_max_step_s);
+  }
 }
 
 RgbdFrameSource::~RgbdFrameSource() = default;
@@ -83,6 +92,18 @@ const ProcessedFrame& RgbdFrameSource::Processed(int frame) {
       << "frame " << frame << " asked for after Finish or TakeBaseFrame";
   auto it = processed_.find(frame);
   if (it != processed_.end()) return it->second;
+  ProcessedFrame processed = Fetch(frame);
+  if (velocities_ && unusable_.count(frame) == 0) Compensate(frame, &processed);
+  return processed_.emplace(frame, std::move(processed)).first->second;
+}
+
+ProcessedFrame RgbdFrameSource::Fetch(int frame) {
+  auto ahead = fetched_ahead_.find(frame);
+  if (ahead != fetched_ahead_.end()) {
+    ProcessedFrame processed = std::move(ahead->second);
+    fetched_ahead_.erase(ahead);
+    return processed;
+  }
   const auto start = std::chrono::steady_clock::now();
   const std::string name = "frame " + std::to_string(dataset_.info(frame).source_index) + ": ";
   ProcessedFrame processed;
@@ -115,7 +136,44 @@ const ProcessedFrame& RgbdFrameSource::Processed(int frame) {
     unusable_[frame] = unusable;
   }
   processed.info = dataset_.info(frame);
-  return processed_.emplace(frame, std::move(processed)).first->second;
+  return processed;
+}
+
+void RgbdFrameSource::Compensate(int frame, ProcessedFrame* processed) {
+  // The frame's own step registrations need it as the front end made it: held aside while
+  // its neighbours are fetched and registered.
+  auto own = fetched_ahead_.emplace(frame, std::move(*processed)).first;
+  const std::optional<CameraVelocity> velocity =
+      velocities_->Of(frame, [this](int later) { return RegisterStep(later); });
+  *processed = std::move(own->second);
+  fetched_ahead_.erase(own);
+  if (!velocity) return;
+  const Rig& rig = dataset_.rig();
+  for (size_t i = 0; i < processed->points.size(); ++i) {
+    processed->points[i] = CompensateRollingShutter(
+        processed->points[i], processed->features.pixels[i].y(), *velocity, rig);
+  }
+}
+
+std::optional<Eigen::Isometry3d> RgbdFrameSource::RegisterStep(int later) {
+  // Each frame of the step as it is held (compensated already or not: the step's motion is
+  // the same to first order), else fetched and kept for when it is asked for itself.
+  auto held = [this](int frame) -> const ProcessedFrame& {
+    const auto done = processed_.find(frame);
+    if (done != processed_.end()) return done->second;
+    auto ahead = fetched_ahead_.find(frame);
+    if (ahead == fetched_ahead_.end()) ahead = fetched_ahead_.emplace(frame, Fetch(frame)).first;
+    return ahead->second;
+  };
+  const ProcessedFrame& a = held(later - 1);
+  const ProcessedFrame& b = held(later);
+  if (a.features.size() == 0 || b.features.size() == 0) return std::nullopt;
+  const FrameRegistration step =
+      RegisterFrames(a, b, options_.frontend.matching, options_.frontend.registration);
+  timings_.match_s += step.seconds_match;
+  timings_.ransac_s += step.seconds_ransac;
+  if (!step.result.success) return std::nullopt;
+  return step.result.T_a_b;
 }
 
 std::string RgbdFrameSource::UnusableReason(int frame) const {
@@ -290,6 +348,7 @@ void RgbdFrameSource::AddBaseFrame(int frame, ProcessedFrame processed,
 void RgbdFrameSource::Finish() {
   finished_ = true;
   processed_.clear();
+  fetched_ahead_.clear();
   pending_.clear();
   registrations_.clear();
   feature_ids_.clear();
@@ -314,6 +373,7 @@ std::pair<ProcessedFrame, std::vector<int64_t>> RgbdFrameSource::TakeBaseFrame(i
 void RgbdFrameSource::Release(int frame) {
   if (feature_ids_.count(frame) > 0) return;  // a base frame
   processed_.erase(frame);
+  fetched_ahead_.erase(frame);
   pending_.erase(frame);
   for (auto it = registrations_.begin(); it != registrations_.end();) {
     it = it->first.second == frame ? registrations_.erase(it) : std::next(it);

@@ -14,6 +14,7 @@
 #include <cstdint>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -23,6 +24,7 @@
 #include "core/option_table.h"
 #include "frontend/frame_prefetcher.h"
 #include "frontend/frame_processor.h"
+#include "frontend/rolling_shutter.h"
 
 namespace ieslam {
 
@@ -40,6 +42,12 @@ struct RgbdSourceOptions {
   int min_inliers_secondary = 15;
   // Frames loaded and processed ahead on worker threads (0 workers: sequential).
   PrefetchOptions prefetch;
+  // A rolling-shutter rig's frames are compensated with the velocity their registrations to
+  // the frames next to them give (frontend/rolling_shutter.h). Frames further apart in time
+  // than this say nothing of each other's velocity: three frame periods at 30 Hz (a stride of
+  // 3, or one frame skipped) still give the velocity at the frame; over longer gaps a hand-held
+  // camera's velocity changes as much as it is.
+  double velocity_max_step_s = 0.1;
 
   // The options' registration: keys, help, checks (core/option_table.h).
   static const OptionTable<RgbdSourceOptions>& Table();
@@ -98,18 +106,29 @@ class RgbdFrameSource : public FrameSource {
   }
 
   const SourceTimings& timings() const { return timings_; }
+  // The frames' velocities for rolling-shutter compensation; none when the rig's colour camera
+  // has a global shutter.
+  const FrameVelocities* velocities() const { return velocities_.get(); }
   // The processed frame (features and lifted points), processing it now if needed. A frame
   // whose images do not load (missing, corrupt, wrong size), whose range image has no valid
   // measurement, or with too few lifted keypoints to register (textureless) is processed as
   // an empty frame and is unusable: its candidates are never registered and carry the
   // reason, so one bad frame is a counted skip rather than the end of the run.
   const ProcessedFrame& Processed(int frame);
-  // Processed frames held: the base frames and those processed and not released.
-  int frames_kept() const { return static_cast<int>(processed_.size()); }
+  // Processed frames held: the base frames, those processed and not released, and those
+  // fetched ahead for a rolling-shutter neighbour's velocity.
+  int frames_kept() const { return static_cast<int>(processed_.size() + fetched_ahead_.size()); }
   // Why `frame` is unusable (see Processed), or "" when it is usable or not processed yet.
   std::string UnusableReason(int frame) const;
 
  private:
+  // The frame as the front end made it (prefetched, or processed now), before rolling-shutter
+  // compensation; an unusable frame is empty and has its reason in unusable_.
+  ProcessedFrame Fetch(int frame);
+  // Moves the keypoints of a rolling-shutter frame into the view of its timestamp.
+  void Compensate(int frame, ProcessedFrame* processed);
+  // T_{k-1,k} from the frames' registration, the frames not compensated unless already so.
+  std::optional<Eigen::Isometry3d> RegisterStep(int later);
   CandidateFrame Build(int frame, const std::vector<int>& bases);
   // The candidate of an unusable frame: not registered, with the reason.
   CandidateFrame Unusable(int frame) const;
@@ -121,7 +140,11 @@ class RgbdFrameSource : public FrameSource {
   BaseFrameDatabase database_;
   FramePrefetcher prefetcher_;
   std::map<int, ProcessedFrame> processed_;
-  std::map<int, std::string> unusable_;  // frame -> why (see Processed)
+  // Frames fetched to register a neighbour's step before they were asked for themselves (not
+  // compensated yet); each leaves when it is processed or released.
+  std::map<int, ProcessedFrame> fetched_ahead_;
+  std::unique_ptr<FrameVelocities> velocities_;  // rolling-shutter rigs only
+  std::map<int, std::string> unusable_;          // frame -> why (see Processed)
   // A frame is prepared again in each buffer that holds it: its registrations to base
   // frames do not change, so they are computed once. Entries of frames that became base
   // frames or fell behind are dropped (see Commit).

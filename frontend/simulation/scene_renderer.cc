@@ -1,5 +1,7 @@
 #include "frontend/simulation/scene_renderer.h"
 
+#include <functional>
+
 #include <algorithm>
 #include <cmath>
 #include <sstream>
@@ -111,21 +113,33 @@ bool RangeSensorModel::Check(std::string* why) const {
 
 RenderedView RenderView(const SyntheticScene& scene, const PinholeCamera& camera,
                         const Eigen::Isometry3d& T_w_c, const RenderOptions& options) {
+  return RenderView(
+      scene, camera, [&T_w_c](int) { return T_w_c; }, options);
+}
+
+RenderedView RenderView(const SyntheticScene& scene, const PinholeCamera& camera,
+                        const std::function<Eigen::Isometry3d(int row)>& T_w_c_of_row,
+                        const RenderOptions& options) {
   std::string why;
   if (!options.Check(&why)) throw ConfigError("render options: " + why);
   if (!camera.Check(&why)) throw ConfigError("rendered camera: " + why);
   const int threads = ThreadCount(options.threads);
-  ShadingContext context;
-  context.scene = &scene;
-  context.camera = &camera;
-  context.R_w_c = T_w_c.linear();
-  context.origin_w = T_w_c.translation();
-  context.light_w = options.light_direction_w.normalized();
-  context.ambient = options.ambient;
-  context.focal = std::sqrt(camera.fx * camera.fy);
+  ShadingContext frame_context;
+  frame_context.scene = &scene;
+  frame_context.camera = &camera;
+  frame_context.light_w = options.light_direction_w.normalized();
+  frame_context.ambient = options.ambient;
+  frame_context.focal = std::sqrt(camera.fx * camera.fy);
+  // Each row is seen from its own pose (the same one for a global shutter).
+  const int rows = camera.height, cols = camera.width;
+  std::vector<ShadingContext> row_context(rows, frame_context);
+  for (int r = 0; r < rows; ++r) {
+    const Eigen::Isometry3d T_w_c = T_w_c_of_row(r);
+    row_context[r].R_w_c = T_w_c.linear();
+    row_context[r].origin_w = T_w_c.translation();
+  }
 
   RenderedView view;
-  const int rows = camera.height, cols = camera.width;
   view.z_m.create(rows, cols, CV_64FC1);
   view.range_m.create(rows, cols, CV_64FC1);
   view.cos_incidence.create(rows, cols, CV_64FC1);
@@ -133,6 +147,7 @@ RenderedView RenderView(const SyntheticScene& scene, const PinholeCamera& camera
   if (options.colour) view.colour.create(rows, cols, CV_8UC3);
 
   ForEachRow(rows, threads, [&](int r) {
+    const ShadingContext& context = row_context[r];
     for (int c = 0; c < cols; ++c) {
       Eigen::Vector3d ray_c;
       const SceneHit hit = context.Cast(Eigen::Vector2d(c, r), &ray_c);
@@ -151,6 +166,7 @@ RenderedView RenderView(const SyntheticScene& scene, const PinholeCamera& camera
   // the pixels where two surfaces meet.
   const int n = options.edge_supersampling;
   ForEachRow(rows, threads, [&](int r) {
+    const ShadingContext& context = row_context[r];
     for (int c = 0; c < cols; ++c) {
       if (!IsEdgePixel(view.surface, r, c)) continue;
       Eigen::Vector3f sum = Eigen::Vector3f::Zero();

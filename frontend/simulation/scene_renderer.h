@@ -14,6 +14,7 @@
 // the caller seeds; they run on one thread, in pixel order.
 #pragma once
 
+#include <functional>
 #include <random>
 #include <string>
 
@@ -48,6 +49,12 @@ struct RenderedView {
 // failing their Check().
 RenderedView RenderView(const SyntheticScene& scene, const PinholeCamera& camera,
                         const Eigen::Isometry3d& T_w_c, const RenderOptions& options);
+
+// The same with each pixel row seen from its own pose (a rolling shutter): T_w_c_of_row(r) is
+// called once per row, on the caller's thread.
+RenderedView RenderView(const SyntheticScene& scene, const PinholeCamera& camera,
+                        const std::function<Eigen::Isometry3d(int row)>& T_w_c_of_row,
+                        const RenderOptions& options);
 
 // How a range imager turns exact geometry into raw 16-bit values.
 struct RangeSensorModel {

@@ -110,6 +110,10 @@ bool SyntheticDatasetOptions::Check(std::string* why) const {
              smallest * resolution_scale < 16.0) {
     s << "resolution_scale must be in (0, 4] and leave images at least 16 pixels wide, got "
       << resolution_scale;
+  } else if (!(std::fabs(readout_s) <= 0.2) || !(std::fabs(readout_s) * frame_rate_hz <= 1.0)) {
+    s << "readout_s must be within +-0.2 s and one frame period, got " << readout_s;
+  } else if (readout_s != 0.0 && sensor != SyntheticSensor::kRgbd) {
+    s << "readout_s (a rolling shutter) is rendered for the rgbd sensor only";
   } else if (!(colour_noise_sigma >= 0.0) || !(colour_noise_sigma <= 50.0)) {
     s << "colour_noise_sigma must be in [0, 50] grey levels, got " << colour_noise_sigma;
   } else if (!RangeSensorModel{max_incidence_deg, add_noise}.Check(&part) ||
@@ -166,13 +170,16 @@ double SyntheticTimestamp(const SyntheticDatasetOptions& options, int i) {
 
 SyntheticFrame RenderSyntheticFrame(const SyntheticScene& scene, const Rig& rig,
                                     const Eigen::Isometry3d& T_w_c,
-                                    const SyntheticDatasetOptions& options, int index) {
+                                    const SyntheticDatasetOptions& options, int index,
+                                    const std::function<Eigen::Isometry3d(int row)>& T_w_c_of_row) {
   std::string why;
   if (!options.Check(&why)) throw ConfigError("synthetic dataset options: " + why);
   SyntheticFrame frame;
   frame.timestamp = SyntheticTimestamp(options, index);
   frame.T_w_c = T_w_c;
-  frame.colour_view = RenderView(scene, rig.colour, T_w_c, MakeRenderOptions(options, true));
+  frame.colour_view =
+      T_w_c_of_row ? RenderView(scene, rig.colour, T_w_c_of_row, MakeRenderOptions(options, true))
+                   : RenderView(scene, rig.colour, T_w_c, MakeRenderOptions(options, true));
   if (rig.registered) {
     frame.range_view = frame.colour_view;
   } else {
@@ -247,7 +254,16 @@ std::vector<char> WriteImages(const DatasetLayout& layout, const SyntheticScene&
   auto work = [&](int k) {
     try {
       for (int i = k; i < options.frames && !(stop && stop()); i += workers) {
-        const SyntheticFrame frame = RenderSyntheticFrame(scene, rig, poses[i], single_thread, i);
+        std::function<Eigen::Isometry3d(int)> rows;
+        if (rig.colour_readout_s != 0.0) {
+          rows = [&, i](int row) {
+            return SyntheticTrajectoryPose(options.trajectory,
+                                           i + rig.RowTimeOffset(row) * options.frame_rate_hz,
+                                           static_cast<int>(poses.size()));
+          };
+        }
+        const SyntheticFrame frame =
+            RenderSyntheticFrame(scene, rig, poses[i], single_thread, i, rows);
         const auto [colour_path, range_path] = layout.ImagePaths(options, i);
         WritePng(colour_path, frame.colour);
         WritePng(range_path, frame.range_raw);
@@ -327,7 +343,8 @@ int WriteSyntheticDataset(const std::string& directory, const SyntheticDatasetOp
   std::string why;
   if (!options.Check(&why)) throw ConfigError("synthetic dataset options: " + why);
   const SyntheticScene scene(options.scene);
-  const Rig rig = SyntheticRig(options.sensor, options.resolution_scale);
+  Rig rig = SyntheticRig(options.sensor, options.resolution_scale);
+  rig.colour_readout_s = options.readout_s;
   const std::vector<Eigen::Isometry3d> poses = BuildSyntheticTrajectory(
       options.trajectory, std::max(options.frames, options.frames_per_loop));
   RequireFreeSpace(scene, rig, poses, options.frames);
@@ -351,6 +368,19 @@ int WriteSyntheticDataset(const std::string& directory, const SyntheticDatasetOp
   return as_written.frames;
 }
 
+namespace {
+
+// A global shutter's line is left out, so that such a dataset's synthetic.txt stays as it was.
+std::string ReadoutLine(double readout_s) {
+  if (readout_s == 0.0) return "";
+  std::ostringstream s;
+  s.precision(17);
+  s << "\nreadout_s: " << readout_s;
+  return s.str();
+}
+
+}  // namespace
+
 std::string FormatSyntheticOptions(const SyntheticDatasetOptions& o) {
   std::ostringstream s;
   s.precision(17);
@@ -361,7 +391,7 @@ std::string FormatSyntheticOptions(const SyntheticDatasetOptions& o) {
     << "\nadd_noise: " << o.add_noise << "\ncolour_noise_sigma: " << o.colour_noise_sigma
     << "\nmax_incidence_deg: " << o.max_incidence_deg
     << "\nedge_supersampling: " << o.edge_supersampling << "\nnoise_seed: " << o.noise_seed
-    << "\nscene.seed: " << o.scene.seed << "\nscene.room_size_m: ["
+    << ReadoutLine(o.readout_s) << "\nscene.seed: " << o.scene.seed << "\nscene.room_size_m: ["
     << o.scene.room_size_m.transpose() << "]\nscene.box_count: " << o.scene.box_count
     << "\nscene.board_count: " << o.scene.board_count << "\nscene.clear_radii_m: ["
     << o.scene.clear_radii_m.transpose() << "]\ntrajectory.centre_m: [" << t.centre_m.transpose()

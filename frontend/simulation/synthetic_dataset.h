@@ -71,6 +71,10 @@ struct SyntheticDatasetOptions {
   // frames in WriteSyntheticDataset. Never changes the output.
   int threads = 0;
   uint32_t noise_seed = 2;
+  // Rolling shutter of the rgbd sensor (Rig::colour_readout_s): each row of the colour and the
+  // registered depth image is rendered from the camera's pose at that row's time; 0 renders a
+  // global shutter. calib.yaml carries it.
+  double readout_s = 0.0;
   SyntheticSceneOptions scene;  // scene.seed picks the scene
   SyntheticTrajectoryOptions trajectory;
 
@@ -91,11 +95,14 @@ struct SyntheticFrame {
 };
 
 // Renders frame `index` (its noise seeded by noise_seed and index) at pose T_w_c of the
-// colour camera. `rig` is normally SyntheticRig(options.sensor, options.resolution_scale).
-// Throws ConfigError for options failing Check().
-SyntheticFrame RenderSyntheticFrame(const SyntheticScene& scene, const Rig& rig,
-                                    const Eigen::Isometry3d& T_w_c,
-                                    const SyntheticDatasetOptions& options, int index);
+// colour camera, or, given T_w_c_of_row, each row of the colour image (and of a registered
+// range image) at its own pose: a rolling shutter. `rig` is normally
+// SyntheticRig(options.sensor, options.resolution_scale). Throws ConfigError for options
+// failing Check().
+SyntheticFrame RenderSyntheticFrame(
+    const SyntheticScene& scene, const Rig& rig, const Eigen::Isometry3d& T_w_c,
+    const SyntheticDatasetOptions& options, int index,
+    const std::function<Eigen::Isometry3d(int row)>& T_w_c_of_row = nullptr);
 
 // The timestamp of frame i.
 double SyntheticTimestamp(const SyntheticDatasetOptions& options, int i);

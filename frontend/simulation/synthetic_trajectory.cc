@@ -60,7 +60,8 @@ Eigen::Matrix3d LookRotation(double heading, double pitch, double roll) {
          looking_along_x * Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitZ()).toRotationMatrix();
 }
 
-Eigen::Isometry3d SyntheticTrajectoryPose(const SyntheticTrajectoryOptions& o, int i, int frames) {
+Eigen::Isometry3d SyntheticTrajectoryPose(const SyntheticTrajectoryOptions& o, double i,
+                                          int frames) {
   CHECK_GE(frames, 1);
   const double phi = 2.0 * M_PI * i / frames;
   auto wave = [phi](double amplitude, int cycles, double phase) {

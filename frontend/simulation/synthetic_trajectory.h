@@ -42,8 +42,9 @@ struct SyntheticTrajectoryOptions {
   bool Check(std::string* why) const;
 };
 
-// T_w_c of the camera at frame i of `frames` evenly spaced round the loop.
-Eigen::Isometry3d SyntheticTrajectoryPose(const SyntheticTrajectoryOptions& options, int i,
+// T_w_c of the camera at frame i of `frames` evenly spaced round the loop; a fractional i is a
+// time between frames (the path is smooth in i).
+Eigen::Isometry3d SyntheticTrajectoryPose(const SyntheticTrajectoryOptions& options, double i,
                                           int frames);
 
 // All `frames` poses (frames >= 1). Throws ConfigError for options failing Check().

@@ -309,6 +309,10 @@ RunResult Run(const Dataset& dataset, const RunOptions& options, const PipelineH
   run.pipeline = RunPipeline(&source, dataset.rig().colour, used.pipeline, pipeline_hooks, clouds,
                              continued != nullptr ? &resume : nullptr);
   run.frontend = source.timings();
+  if (source.velocities() != nullptr) {
+    run.velocity_counts = source.velocities()->counts();
+    run.angular_rates_rad_s = source.velocities()->AngularRates();
+  }
   if (used.save_map && run.pipeline.has_estimate)
     SaveMap(dataset, continued, used, std::move(taken), &run);
   const auto evaluation_start = std::chrono::steady_clock::now();

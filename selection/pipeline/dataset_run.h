@@ -28,6 +28,10 @@ namespace ieslam {
 struct RunResult {
   PipelineResult pipeline;
   SourceTimings frontend;
+  // A rolling-shutter rig's compensation: how many frames had a velocity from both of their
+  // neighbours, one or none, and the angular rates of those that had one.
+  std::optional<FrameVelocities::Counts> velocity_counts;
+  std::vector<double> angular_rates_rad_s;
   // Of the selected frames (in time order) and of every placed frame (in frame order), with
   // the dataset's timestamps; the dataset's ground truth of the selected frames.
   Trajectory keyframes;

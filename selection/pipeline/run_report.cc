@@ -89,6 +89,27 @@ Json SecondsToJson(const RunResult& run, bool refine, double total_seconds,
   return seconds;
 }
 
+// The compensation's readout time, the frames it had a velocity for, and their angular rates.
+Json RollingShutterToJson(const Dataset& dataset, const RunResult& run) {
+  const FrameVelocities::Counts& counts = *run.velocity_counts;
+  Json rates = Json::Object();
+  std::vector<double> deg_s;
+  for (double rate : run.angular_rates_rad_s) deg_s.push_back(rate * 180.0 / M_PI);
+  if (!deg_s.empty()) {
+    std::sort(deg_s.begin(), deg_s.end());
+    const auto at = [&deg_s](double q) {
+      return deg_s[static_cast<size_t>(std::lround(q * (deg_s.size() - 1)))];
+    };
+    rates.Set("median", at(0.5)).Set("p90", at(0.9)).Set("max", deg_s.back());
+  }
+  return Json::Object()
+      .Set("readout_s", dataset.rig().colour_readout_s)
+      .Set("velocity_from_both_neighbours", counts.both)
+      .Set("velocity_from_one_neighbour", counts.one)
+      .Set("no_velocity", counts.none)
+      .Set("angular_rate_deg_s", rates);
+}
+
 // Only what could be computed; null when nothing could.
 Json AteToJson(const RunResult& run, bool refine) {
   Json ate = Json::Object();
@@ -216,6 +237,7 @@ Json RunReport(const Dataset& dataset, const RunOptions& options, const RunResul
                                 .Set("features", static_cast<int>(run.saved_map->features.size()))
                                 .Set("keypoints", keypoints));
   }
+  if (run.velocity_counts) report.Set("rolling_shutter", RollingShutterToJson(dataset, run));
   const GateStatistics& gate = p.selection.gate;
   report.Set("observation_gate", Json::Object()
                                      .Set("frames", gate.frames)

@@ -153,6 +153,18 @@ TEST_F(CalibrationFileTest, RegisteredRigOmitsRangeIntrinsicsAndRoundTrips) {
   EXPECT_EQ(text.find("fx"), text.rfind("fx")) << text;
 }
 
+// A rolling shutter's readout time is optional: a global shutter's file has no such key and
+// its text stays as it was; a rolling shutter's reads back to the bit.
+TEST_F(CalibrationFileTest, RollingShutterReadoutIsOptionalAndRoundTrips) {
+  Rig rig = SampleRig();
+  EXPECT_EQ(FormatCalibration(rig).find("readout_s"), std::string::npos);
+  EXPECT_EQ(ParseCalibration(FormatCalibration(rig), "memory").colour_readout_s, 0.0);
+  rig.colour_readout_s = -0.0312;  // read bottom to top
+  const Rig back = ParseCalibration(FormatCalibration(rig), "memory");
+  EXPECT_EQ(back.colour_readout_s, rig.colour_readout_s);
+  EXPECT_NE(FormatCalibration(rig), FormatCalibration(SampleRig()));
+}
+
 TEST_F(CalibrationFileTest, ReadsAHandWrittenFileWithoutYamlDirective) {
   const Rig rig = ReadCalibration(Write("two.yaml", kTwoCameras));
   EXPECT_EQ(rig.name, "test_rig");
@@ -231,6 +243,10 @@ TEST_F(CalibrationFileTest, PhysicallyImpossibleValuesRaiseConfigErrorNamingFile
       {"noise: {a: 0.005,", "noise: {a: 1e300,", "range.noise.a"},
       {"pixel_sigma: 0.8", "pixel_sigma: 1e-300", "pixel_sigma"},
       {"0, 1, 0, -0.045", "0, 1, 0, -4500", "T_colour_range"},
+      {kColourDistortion, "distortion: [-0.2, 0.12, 0.001, -0.002, 0.01]\n  readout_s: 0.5",
+       "colour.readout_s"},  // longer than a 5 Hz camera's frame
+      {kColourDistortion, "distortion: [-0.2, 0.12, 0.001, -0.002, 0.01]\n  readout_s: fast",
+       "colour.readout_s"},
   };
   for (const BadCase& c : cases) {
     const std::string path = Write("bad.yaml", Replace(kTwoCameras, c.from, c.to));
