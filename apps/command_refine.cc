@@ -42,6 +42,7 @@ StoredRefinementOptions RefineOptionsFromFlags(const Flags& flags, RunOptions* c
   options.ba = config->pipeline.ba;
   options.depth_alignment = config->pipeline.depth_alignment;
   options.range_cloud = config->range_cloud;
+  options.velocity_max_step_s = config->source.velocity_max_step_s;
   const std::string robust = flags.GetString("robust", BaRobustLossName(options.ba.robust_loss));
   if (!ParseBaRobustLoss(robust, &options.ba.robust_loss)) {
     throw ConfigError("--robust must be none or huber, got '" + robust + "'");

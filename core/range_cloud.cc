@@ -147,7 +147,17 @@ int RangeCloud::ValidCount() const {
 bool RangeCloud::Interpolate(const Eigen::Vector3d& p, double max_depth_ratio, Eigen::Vector3d* q_r,
                              Eigen::Vector3d* normal_r, double* sigma) const {
   if (!(p.z() > 0.0)) return false;
-  const Eigen::Vector2d cell = grid.Project(p);
+  Eigen::Vector2d cell = grid.Project(p);
+  if (!to_row.empty()) {
+    // The row p lands on, seen from that row's pose: the rows' poses differ little, so two
+    // rounds settle it.
+    for (int round = 0; round < 2; ++round) {
+      const int row = std::clamp(static_cast<int>(std::lround(cell.y())), 0, grid.height - 1);
+      const Eigen::Vector3d p_row = to_row[row].cast<double>() * p;
+      if (!(p_row.z() > 0.0)) return false;
+      cell = grid.Project(p_row);
+    }
+  }
   const double fx = std::floor(cell.x()), fy = std::floor(cell.y());
   if (!(fx >= 0.0 && fy >= 0.0 && fx + 1.0 < grid.width && fy + 1.0 < grid.height)) return false;
   const int x = static_cast<int>(fx), y = static_cast<int>(fy);
@@ -177,7 +187,8 @@ bool RangeCloud::Interpolate(const Eigen::Vector3d& p, double max_depth_ratio, E
 
 RangeCloud MakeRangeCloud(const cv::Mat& depth, const RangeImager& range,
                           const Eigen::Isometry3d& T_colour_range, const RangeCloudOptions& options,
-                          const std::string& what, const RangeRays* rays) {
+                          const std::string& what, const RangeRays* rays,
+                          const RangeRowMotion& row_motion) {
   std::string why;
   if (!options.Check(&why)) throw ConfigError(why);
   if (depth.type() != CV_32FC1 || depth.cols != range.camera.width ||
@@ -191,13 +202,18 @@ RangeCloud MakeRangeCloud(const cv::Mat& depth, const RangeImager& range,
   RangeCloud cloud = EmptyRangeCloud(range, T_colour_range, step);
   const GridPointEstimator estimator(depth, range, rays, options, what);
   for (int gy = 0; gy < cloud.grid.height; ++gy) {
+    Eigen::Isometry3d to_frame = Eigen::Isometry3d::Identity();
+    if (row_motion) {
+      to_frame = row_motion(gy * step);
+      cloud.to_row.push_back(to_frame.inverse().cast<float>());
+    }
     for (int gx = 0; gx < cloud.grid.width; ++gx) {
       Eigen::Vector3d p, n;
       double sigma = 0.0;
       if (!estimator.Estimate(gx * step, gy * step, &p, &n, &sigma)) continue;
       const size_t cell = static_cast<size_t>(gy) * cloud.grid.width + gx;
-      cloud.p_r[cell] = p.cast<float>();
-      cloud.n_r[cell] = n.cast<float>();
+      cloud.p_r[cell] = (to_frame * p).cast<float>();
+      cloud.n_r[cell] = (to_frame.linear() * n).cast<float>();
       cloud.sigma_m[cell] = static_cast<float>(sigma);
     }
   }

@@ -9,6 +9,7 @@
 #pragma once
 
 #include <cmath>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -54,10 +55,16 @@ struct RangeCloud {
   std::vector<Eigen::Vector3f> p_r;
   std::vector<Eigen::Vector3f> n_r;  // unit normals, facing the camera
   std::vector<float> sigma_m;        // the range noise sigma_d at the point's range
+  // A rolling shutter's cloud (MakeRangeCloud's row_motion): p_r and n_r are in the range
+  // imager's frame at the frame's timestamp, each moved there from its row's time, and
+  // to_row[j] takes a point from that frame into grid row j's, where the grid's pixels see
+  // it. Empty for a global shutter.
+  std::vector<Eigen::Isometry3f> to_row;
 
   bool Valid(int index) const { return std::isfinite(p_r[index].x()); }
   int ValidCount() const;
-  // The surface where a point in the range imager's frame projects: the point, normal and
+  // The surface where a point in the range imager's frame projects (for a rolling shutter,
+  // where it projects from the pose of the row it lands on): the point, normal and
   // range sigma interpolated bilinearly between the four grid points around its projection,
   // so that they move continuously with it (nearest-cell association jumps by a grid cell
   // and keeps an alignment from converging). False when one of the four is invalid or they
@@ -67,11 +74,18 @@ struct RangeCloud {
                    Eigen::Vector3d* normal_r, double* sigma) const;
 };
 
+// A rolling-shutter frame's motion: the pose, in the range imager's frame at the frame's
+// timestamp, of that frame at the time range pixel row `row` was exposed.
+using RangeRowMotion = std::function<Eigen::Isometry3d(double row)>;
+
 // The cloud of a range image (CV_32FC1 metres in the range imager's grid, 0 = no
 // measurement, as Frame::depth). Throws DataError naming `what` when the image's size does
 // not match the imager's. `rays`, when given, are `range`'s (the same cloud, faster).
+// `row_motion`, when given, moves each point and normal from its row's time to the frame's
+// timestamp (RangeCloud::to_row).
 RangeCloud MakeRangeCloud(const cv::Mat& depth, const RangeImager& range,
                           const Eigen::Isometry3d& T_colour_range, const RangeCloudOptions& options,
-                          const std::string& what, const RangeRays* rays = nullptr);
+                          const std::string& what, const RangeRays* rays = nullptr,
+                          const RangeRowMotion& row_motion = nullptr);
 
 }  // namespace ieslam

@@ -56,12 +56,14 @@ void DenseMap::AddPoints(const std::vector<Point>& points) {
 
 std::vector<DenseMap::Point> DenseMap::FramePoints(const Frame& frame, const Rig& rig,
                                                    const Eigen::Isometry3d& T_w_c,
-                                                   const RangeRays* rays) const {
+                                                   const RangeRays* rays,
+                                                   const RangeRowMotion& row_motion) const {
   CHECK_EQ(frame.depth.type(), CV_32F);
   CHECK_EQ(frame.colour.type(), CV_8UC3);
   const Eigen::Isometry3d T_w_range = T_w_c * rig.T_colour_range;
   std::vector<Point> points;
   for (int y = 0; y < frame.depth.rows; y += options_.pixel_step) {
+    const Eigen::Isometry3d T_w_row = row_motion ? T_w_range * row_motion(y) : T_w_range;
     for (int x = 0; x < frame.depth.cols; x += options_.pixel_step) {
       const float value = frame.depth.at<float>(y, x);
       if (!(value > 0.0f) || !std::isfinite(value)) continue;
@@ -74,7 +76,7 @@ std::vector<DenseMap::Point> DenseMap::FramePoints(const Frame& frame, const Rig
       const cv::Vec3b bgr = frame.colour.at<cv::Vec3b>(static_cast<int>(std::lround(pixel.y())),
                                                        static_cast<int>(std::lround(pixel.x())));
       Point& point = points.emplace_back();
-      point.p_w = T_w_range * p_range;
+      point.p_w = T_w_row * p_range;
       point.voxel = VoxelKey(point.p_w, options_.voxel_size_m);
       for (int i = 0; i < 3; ++i) point.rgb[i] = bgr[2 - i];
     }

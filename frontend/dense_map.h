@@ -13,6 +13,7 @@
 #include "core/camera.h"
 #include "core/dataset.h"
 #include "core/option_table.h"
+#include "core/range_cloud.h"
 
 namespace ieslam {
 
@@ -41,9 +42,12 @@ class DenseMap {
   void AddFrame(const Frame& frame, const Rig& rig, const Eigen::Isometry3d& T_w_c);
   // AddFrame in two steps: the points (const, so callers may compute them on other threads)
   // and their accumulation. Adding frames' points in the same order gives the same map.
-  // `rays`, when given, are rig.range's (the same points, faster).
+  // `rays`, when given, are rig.range's (the same points, faster). `row_motion`, when given,
+  // places each point seen at its row's time from the pose of the frame's timestamp (a
+  // rolling shutter, core/range_cloud.h).
   std::vector<Point> FramePoints(const Frame& frame, const Rig& rig, const Eigen::Isometry3d& T_w_c,
-                                 const RangeRays* rays = nullptr) const;
+                                 const RangeRays* rays = nullptr,
+                                 const RangeRowMotion& row_motion = nullptr) const;
   void AddPoints(const std::vector<Point>& points);
 
   size_t size() const { return voxels_.size(); }

@@ -1,8 +1,11 @@
 #include "frontend/rolling_shutter.h"
 
+#include <algorithm>
 #include <utility>
 
 #include <glog/logging.h>
+
+#include "core/timestamp_association.h"
 
 namespace ieslam {
 
@@ -88,6 +91,39 @@ std::vector<double> FrameVelocities::AngularRates() const {
     if (velocity) rates.push_back(velocity->angular_rad_s.norm());
   }
   return rates;
+}
+
+RangeRowMotion RangeRowMotionOf(const Rig& rig, const CameraVelocity& velocity) {
+  const Eigen::Isometry3d T_colour_range = rig.T_colour_range;
+  const double readout_s = rig.colour_readout_s;
+  const int rows = rig.range.camera.height;
+  return [T_colour_range, readout_s, rows, velocity](double row) {
+    const double tau = ((row + 0.5) / rows - 0.5) * readout_s;
+    return Eigen::Isometry3d(T_colour_range.inverse() * MotionOver(velocity, tau) * T_colour_range);
+  };
+}
+
+std::map<int, CameraVelocity> VelocitiesAtStamps(const Trajectory& trajectory,
+                                                 const std::map<int, double>& stamps,
+                                                 double max_step_s, double same_timestamp_s) {
+  std::vector<double> times;
+  for (const TimedPose& pose : trajectory) times.push_back(pose.timestamp);
+  std::vector<std::pair<double, int>> by_time;  // AssociateStamps wants both lists sorted
+  for (const auto& [frame, stamp] : stamps) by_time.emplace_back(stamp, frame);
+  std::sort(by_time.begin(), by_time.end());
+  std::vector<double> wanted;
+  for (const auto& [stamp, frame] : by_time) wanted.push_back(stamp);
+  FrameVelocities velocities(times, max_step_s);
+  const auto step = [&trajectory](int later) -> std::optional<Eigen::Isometry3d> {
+    return trajectory[later - 1].T_w_c.inverse() * trajectory[later].T_w_c;
+  };
+  std::map<int, CameraVelocity> at;
+  for (const StampMatch& m : AssociateStamps(wanted, times, 0.0, same_timestamp_s)) {
+    const std::optional<CameraVelocity> velocity =
+        velocities.Of(static_cast<int>(m.second_index), step);
+    if (velocity) at.emplace(by_time[m.first_index].second, *velocity);
+  }
+  return at;
 }
 
 }  // namespace ieslam

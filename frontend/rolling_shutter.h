@@ -24,6 +24,8 @@
 #include <Eigen/Geometry>
 
 #include "core/camera.h"
+#include "core/range_cloud.h"
+#include "core/trajectory.h"
 #include "frontend/lifting.h"
 
 namespace ieslam {
@@ -95,5 +97,17 @@ class FrameVelocities {
   std::map<int, std::optional<CameraVelocity>> velocities_;
   Counts counts_;
 };
+
+// The rows of a rolling-shutter rig's range image, each exposed at its own time across the
+// colour camera's readout (a registered depth image's rows with the colour image's), for a
+// camera moving at `velocity` (the colour camera's): core/range_cloud.h's row motion.
+RangeRowMotion RangeRowMotionOf(const Rig& rig, const CameraVelocity& velocity);
+
+// The velocity at each of `stamps` (frame -> timestamp) that has a pose of `trajectory` (a
+// run's every frame, in time order) within same_timestamp_s, from the poses next to that one
+// there, as FrameVelocities estimates them from registrations; frames without one are left out.
+std::map<int, CameraVelocity> VelocitiesAtStamps(const Trajectory& trajectory,
+                                                 const std::map<int, double>& stamps,
+                                                 double max_step_s, double same_timestamp_s);
 
 }  // namespace ieslam

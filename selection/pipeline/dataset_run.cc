@@ -12,6 +12,7 @@
 #include "backend/evaluation/evaluation_io.h"
 #include "core/error.h"
 #include "core/stopwatch.h"
+#include "frontend/rolling_shutter.h"
 
 namespace ieslam {
 namespace {
@@ -56,7 +57,7 @@ struct LoadedFrame {
 
 LoadedFrame LoadFrame(const Dataset& dataset, int frame, const Eigen::Isometry3d& T_w_c,
                       const RangeCloudOptions& cloud_options, const RangeRays& rays,
-                      const DenseMap* map, bool cloud) {
+                      const RangeRowMotion& row_motion, const DenseMap* map, bool cloud) {
   LoadedFrame out;
   const std::string name = "frame " + std::to_string(frame);
   Frame loaded;
@@ -66,11 +67,13 @@ LoadedFrame LoadFrame(const Dataset& dataset, int frame, const Eigen::Isometry3d
     out.load_error = e.what();
     return out;
   }
-  if (map != nullptr) out.points = map->FramePoints(loaded, dataset.rig(), T_w_c, &rays);
+  if (map != nullptr) {
+    out.points = map->FramePoints(loaded, dataset.rig(), T_w_c, &rays, row_motion);
+  }
   if (!cloud) return out;
   try {
     out.cloud = MakeRangeCloud(loaded.depth, dataset.rig().range, dataset.rig().T_colour_range,
-                               cloud_options, name, &rays);
+                               cloud_options, name, &rays, row_motion);
   } catch (const DataError& e) {
     out.cloud_error = e.what();
   }
@@ -84,16 +87,36 @@ std::string FrameUses(bool map, bool alignment) {
                           : "the depth alignment";
 }
 
+// The velocities of a rolling-shutter rig's `frames` along the estimated trajectory, for their
+// range images' rows (frontend/rolling_shutter.h); none for a global shutter. The trajectory is
+// taken as trajectory.tum holds it, so that `ieslam refine` finds the same velocities there.
+std::map<int, CameraVelocity> RowVelocities(
+    const Dataset& dataset, const std::vector<std::optional<Eigen::Isometry3d>>& T_w_c,
+    const std::vector<int>& frames, double max_step_s) {
+  if (dataset.rig().colour_readout_s == 0.0) return {};
+  constexpr double kRowVelocityStampS = 1e-4;  // a frame and its TUM line: microseconds apart
+  Trajectory trajectory;
+  for (int f = 0; f < static_cast<int>(T_w_c.size()); ++f) {
+    if (T_w_c[f]) trajectory.push_back({dataset.info(f).timestamp, *T_w_c[f]});
+  }
+  std::map<int, double> stamps;
+  for (const int f : frames) stamps[f] = dataset.info(f).timestamp;
+  return VelocitiesAtStamps(AsReadBackFromTum(trajectory, "trajectory.tum"), stamps, max_step_s,
+                            kRowVelocityStampS);
+}
+
 // Loads each of `frames` once into the dense map (at its pose in `T_w_c`) and, when `clouds`
-// is set, as a range cloud. A frame that cannot be loaded again, or whose range image gives
-// no cloud, is left out with a warning. Stops early, setting *stopped, once `stop` (when
-// set) says so. With workers > 0 that many threads load frames (decoding, points, clouds)
+// is set, as a range cloud; a frame with a velocity in `velocities` has each range row placed
+// from its own time's pose (a rolling shutter). A frame that cannot be loaded again, or whose range
+// image gives no cloud, is left out with a warning. Stops early, setting *stopped, once `stop`
+// (when set) says so. With workers > 0 that many threads load frames (decoding, points, clouds)
 // ahead of the caller, who adds them to the map in the given order: the same map as one
 // thread gives. Frames `has_images` (when set) says have none (a saved map's keyframes whose
 // dataset is gone) are left out.
 void LoadSelectedFrames(const Dataset& dataset, const std::function<bool(int)>& has_images,
                         const std::vector<int>& frames,
                         const std::vector<std::optional<Eigen::Isometry3d>>& T_w_c,
+                        const std::map<int, CameraVelocity>& velocities,
                         const RangeCloudOptions& cloud_options, int workers, DenseMap* map,
                         RangeClouds* clouds, const std::function<bool()>& stop, bool* stopped,
                         std::vector<std::string>* warnings) {
@@ -105,7 +128,12 @@ void LoadSelectedFrames(const Dataset& dataset, const std::function<bool(int)>& 
   if (placed.empty()) return;
   const RangeRays rays(dataset.rig().range);
   const auto load = [&](int frame) {
-    return LoadFrame(dataset, frame, *T_w_c[frame], cloud_options, rays, map, clouds != nullptr);
+    const auto velocity = velocities.find(frame);
+    const RangeRowMotion row_motion = velocity == velocities.end()
+                                          ? RangeRowMotion()
+                                          : RangeRowMotionOf(dataset.rig(), velocity->second);
+    return LoadFrame(dataset, frame, *T_w_c[frame], cloud_options, rays, row_motion, map,
+                     clouds != nullptr);
   };
   // Frames started ahead and not yet added, one per worker (each holds its images and points).
   std::deque<std::future<LoadedFrame>> ahead;
@@ -294,9 +322,10 @@ RunResult Run(const Dataset& dataset, const RunOptions& options, const PipelineH
   const RangeCloudLoader clouds = [&](const std::vector<int>& frames,
                                       const std::vector<std::optional<Eigen::Isometry3d>>& T_w_c) {
     RangeClouds loaded;
-    LoadSelectedFrames(dataset, has_images, frames, T_w_c, used.range_cloud, map_workers,
-                       run.map ? &*run.map : nullptr, &loaded, loader_stop,
-                       &run.stopped_after_selection, &run.warnings);
+    LoadSelectedFrames(dataset, has_images, frames, T_w_c,
+                       RowVelocities(dataset, T_w_c, frames, used.source.velocity_max_step_s),
+                       used.range_cloud, map_workers, run.map ? &*run.map : nullptr, &loaded,
+                       loader_stop, &run.stopped_after_selection, &run.warnings);
     map_built = true;
     return loaded;
   };
@@ -324,9 +353,12 @@ RunResult Run(const Dataset& dataset, const RunOptions& options, const PipelineH
     const std::function<bool()> map_stop = [&] {
       return !selection_interrupted && hooks.stop && hooks.stop();
     };
-    LoadSelectedFrames(dataset, has_images, run.pipeline.selection.selected, run.pipeline.T_w_c,
-                       used.range_cloud, map_workers, &*run.map, nullptr, map_stop,
-                       &run.stopped_after_selection, &run.warnings);
+    const std::vector<int>& selected = run.pipeline.selection.selected;
+    LoadSelectedFrames(
+        dataset, has_images, selected, run.pipeline.T_w_c,
+        RowVelocities(dataset, run.pipeline.T_w_c, selected, used.source.velocity_max_step_s),
+        used.range_cloud, map_workers, &*run.map, nullptr, map_stop, &run.stopped_after_selection,
+        &run.warnings);
     run.map_seconds += SecondsSince(map_start);
   }
   // A stop in the refinement or the map, where the selection no longer polls.

@@ -12,6 +12,7 @@
 #include "core/file_util.h"
 #include "core/timestamp_association.h"
 #include "core/version.h"
+#include "frontend/rolling_shutter.h"
 #include "selection/pipeline/run_options.h"
 
 namespace ieslam {
@@ -98,17 +99,26 @@ void CheckSameCamera(const Dataset& dataset, const PinholeCamera& b) {
 }  // namespace
 
 bool StoredRefinementOptions::Check(std::string* why) const {
+  if (!(velocity_max_step_s > 0.0)) {
+    if (why != nullptr) *why = "velocity_max_step_s must be positive";
+    return false;
+  }
   return ba.Check(why) && depth_alignment.Check(why) && range_cloud.Check(why);
 }
 
 RangeClouds LoadRangeCloudsAtTimestamps(const Dataset& dataset, const StoredBaProblem& stored,
                                         const RangeCloudOptions& options,
-                                        std::vector<std::string>* warnings) {
+                                        std::vector<std::string>* warnings,
+                                        const Trajectory* trajectory, double velocity_max_step_s) {
   constexpr double kSameTimestampS = 1e-4;
   CheckSameCamera(dataset, stored.camera);
   std::vector<double> stamps;
   for (int i = 0; i < dataset.size(); ++i) stamps.push_back(dataset.info(i).timestamp);
   const std::map<int, size_t> matched = FramesAtStamps(stored, stamps, kSameTimestampS);
+  const std::map<int, CameraVelocity> velocities =
+      dataset.rig().colour_readout_s != 0.0 && trajectory != nullptr
+          ? VelocitiesAtStamps(*trajectory, stored.timestamps, velocity_max_step_s, kSameTimestampS)
+          : std::map<int, CameraVelocity>();
   RangeClouds loaded;
   const RangeRays rays(dataset.rig().range);
   for (const auto& [frame, T_w_c] : stored.problem.T_w_c) {
@@ -122,9 +132,12 @@ RangeClouds LoadRangeCloudsAtTimestamps(const Dataset& dataset, const StoredBaPr
     }
     try {
       const Frame frame_data = dataset.Load(static_cast<int>(it->second));
-      loaded.clouds[frame] =
-          MakeRangeCloud(frame_data.depth, dataset.rig().range, dataset.rig().T_colour_range,
-                         options, "frame " + std::to_string(frame), &rays);
+      const auto velocity = velocities.find(frame);
+      loaded.clouds[frame] = MakeRangeCloud(
+          frame_data.depth, dataset.rig().range, dataset.rig().T_colour_range, options,
+          "frame " + std::to_string(frame), &rays,
+          velocity == velocities.end() ? RangeRowMotion()
+                                       : RangeRowMotionOf(dataset.rig(), velocity->second));
     } catch (const DataError& e) {
       warnings->push_back(left_out + e.what());
       ++loaded.frames_left_out;
@@ -149,7 +162,10 @@ StoredRefinement RefineStoredRun(const std::string& run_dir, const Dataset* data
   RangeClouds clouds;
   result.aligned_clouds = dataset != nullptr && options.depth_alignment.rounds > 0;
   if (result.aligned_clouds) {
-    clouds = LoadRangeCloudsAtTimestamps(*dataset, stored, options.range_cloud, &result.warnings);
+    const std::string frames = JoinPath(run_dir, "trajectory.tum");
+    const Trajectory trajectory = FileExists(frames) ? ReadTumTrajectory(frames) : Trajectory();
+    clouds = LoadRangeCloudsAtTimestamps(*dataset, stored, options.range_cloud, &result.warnings,
+                                         &trajectory, options.velocity_max_step_s);
   }
   const std::string gt = JoinPath(run_dir, "groundtruth.tum");
   const bool has_gt = FileExists(gt);

@@ -19,6 +19,9 @@ struct StoredRefinementOptions {
   BundleAdjustmentOptions ba;
   DepthAlignmentOptions depth_alignment;
   RangeCloudOptions range_cloud;
+  // A rolling-shutter rig's range rows are placed from their own times' poses, with each
+  // keyframe's velocity from the run's trajectory.tum (RgbdSourceOptions's namesake).
+  double velocity_max_step_s = 0.1;
   // Start from the ground truth (every frame's pose within 0.02 s) instead of the run's
   // estimate, the features placed from those poses: where the data's own optimum lies.
   bool from_ground_truth = false;
@@ -41,13 +44,19 @@ struct StoredRefinement {
 // dataset's frame at its timestamp (within 0.1 ms, as `ieslam evaluate` associates), so that a
 // dataset opened without the run's --first/--last/--stride still gives the right frames. A frame
 // not found or not readable is left out with a warning. Throws DataError when the dataset's colour
-// camera is not the problem's (another calibration) or no frame matches (another dataset).
+// camera is not the problem's (another calibration) or no frame matches (another dataset). For a
+// rolling-shutter rig, `trajectory` (the run's every frame, when given) gives each keyframe's
+// velocity from the frames next to it (frontend/rolling_shutter.h), and the keyframe's range
+// rows are placed from their own times' poses; without it, or without a velocity, they are not.
 RangeClouds LoadRangeCloudsAtTimestamps(const Dataset& dataset, const StoredBaProblem& stored,
                                         const RangeCloudOptions& options,
-                                        std::vector<std::string>* warnings);
+                                        std::vector<std::string>* warnings,
+                                        const Trajectory* trajectory = nullptr,
+                                        double velocity_max_step_s = 0.1);
 
 // Refines the run in `run_dir` (its ba_problem.txt; groundtruth.tum and keyframes.tum when
-// there, for the ATE and --from-ground-truth); `dataset`, when given, is the run's. Throws
+// there, for the ATE and --from-ground-truth; trajectory.tum for a rolling shutter's range
+// clouds); `dataset`, when given, is the run's. Throws
 // DataError naming the file for a missing or bad stored problem or ground truth, and naming
 // ba_problem.txt and why for a refinement that failed (Refinement::failure).
 StoredRefinement RefineStoredRun(const std::string& run_dir, const Dataset* dataset,

@@ -160,6 +160,58 @@ TEST(RangeCloudTest, TheRaysTableGivesTheSameCloud) {
   }
 }
 
+// A rolling shutter turning about the vertical axis sees a wall from another pose on each row.
+// With the rows' motion the cloud is the wall as seen from the frame's pose, and a point of the
+// wall finds itself on it, through the row that saw it.
+TEST(RangeCloudTest, RowMotionPlacesARollingShuttersRowsAndAssociatesThroughThem) {
+  const RangeImager range = testing_core::KinectRangeImager();
+  const double rate = 1.5, readout = 0.03;  // rad/s about y (86 deg/s), s
+  const RangeRowMotion motion = [&](double row) {
+    const double tau = ((row + 0.5) / range.camera.height - 0.5) * readout;
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.linear() = Eigen::AngleAxisd(rate * tau, Eigen::Vector3d::UnitY()).toRotationMatrix();
+    return T;
+  };
+  // The wall z = 2 of the frame's pose, as each row sees it: n . (M p_row) = 2.
+  cv::Mat depth(range.camera.height, range.camera.width, CV_32FC1);
+  for (int y = 0; y < depth.rows; ++y) {
+    const Eigen::Vector3d n_row = motion(y).linear().transpose() * Eigen::Vector3d::UnitZ();
+    for (int x = 0; x < depth.cols; ++x) {
+      const Eigen::Vector3d ray = range.camera.Unproject(Eigen::Vector2d(x, y));
+      depth.at<float>(y, x) = static_cast<float>(2.0 / n_row.dot(ray));
+    }
+  }
+  RangeCloudOptions options;
+  const RangeCloud rolled =
+      MakeRangeCloud(depth, range, Eigen::Isometry3d::Identity(), options, "wall", nullptr, motion);
+  const RangeCloud as_global =
+      MakeRangeCloud(depth, range, Eigen::Isometry3d::Identity(), options, "wall");
+  ASSERT_EQ(rolled.to_row.size(), static_cast<size_t>(rolled.grid.height));
+  EXPECT_TRUE(as_global.to_row.empty());
+  double rolled_off = 0.0, global_off = 0.0;
+  for (size_t i = 0; i < rolled.p_r.size(); ++i) {
+    if (!rolled.Valid(static_cast<int>(i))) continue;
+    rolled_off = std::max(rolled_off, std::abs(rolled.p_r[i].z() - 2.0));
+    global_off = std::max(global_off, std::abs(as_global.p_r[i].z() - 2.0));
+    // A normal is fitted to its window's points as their rows saw them, which the turn shears
+    // across the rows: a few degrees off, which moves a point-to-plane residual by microns.
+    EXPECT_GT(-rolled.n_r[i].z(), std::cos(3.0 * M_PI / 180.0));
+  }
+  EXPECT_LT(rolled_off, 1e-5);  // float rounding
+  EXPECT_GT(global_off, 0.02);  // the rows turned by up to 1.3 deg: a sheared wall
+  for (const Eigen::Vector3d p : {Eigen::Vector3d(0.7, -0.5, 2.0), Eigen::Vector3d(-0.6, 0.6, 2.0),
+                                  Eigen::Vector3d(0.0, 0.0, 2.0)}) {
+    Eigen::Vector3d q, n;
+    double sigma = 0.0;
+    ASSERT_TRUE(rolled.Interpolate(p, 0.05, &q, &n, &sigma)) << p.transpose();
+    // On the wall, and beside the point by a fraction of a millimetre (the corners' rows are
+    // taken at the nearest grid row's motion), where the frame's pose alone would put it
+    // centimetres away.
+    EXPECT_LT(std::abs(q.z() - 2.0), 1e-5) << p.transpose() << " -> " << q.transpose();
+    EXPECT_LT((q - p).norm(), 1e-3) << p.transpose() << " -> " << q.transpose();
+  }
+}
+
 TEST(RangeCloudTest, WrongSizeOrBadOptionsAreErrors) {
   const RangeImager range = testing_core::KinectRangeImager();
   try {

@@ -125,5 +125,29 @@ TEST(FrameVelocitiesTest, EachStepIsRegisteredOnceAndGapsGiveNoVelocity) {
   EXPECT_EQ(velocities.AngularRates().size(), 5u);
 }
 
+// Along a trajectory of every frame, each asked-for stamp's velocity comes from the poses next
+// to its own; a stamp with no pose near it, or a pose with no neighbour, gets none.
+TEST(FrameVelocitiesTest, VelocitiesAtStampsFollowTheTrajectory) {
+  const CameraVelocity v = TurningAndMoving();
+  const double dt = 1.0 / 30.0;
+  Trajectory trajectory;
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  for (int i = 0; i < 6; ++i) {
+    if (i != 4) trajectory.push_back({100.0 + i * dt, T});  // frame 4 was not placed
+    T = T * MotionOver(v, dt);
+  }
+  const std::map<int, double> stamps = {
+      {7, 100.0 + 1 * dt}, {9, 100.0 + 3 * dt + 2e-5}, {11, 100.0 + 5 * dt}, {12, 50.0}};
+  const std::map<int, CameraVelocity> at = VelocitiesAtStamps(trajectory, stamps, 0.1, 1e-4);
+  ASSERT_EQ(at.size(), 3u);  // 12 has no pose near it
+  for (const int frame : {7, 9, 11}) {
+    ASSERT_EQ(at.count(frame), 1u) << frame;
+    EXPECT_LT((at.at(frame).angular_rad_s - v.angular_rad_s).norm(), 1e-9) << frame;
+    // Exact where the neighbours are one step away (7); across the missing frame the linear
+    // velocity is first order in the two steps' rotation.
+    EXPECT_LT((at.at(frame).linear_m_s - v.linear_m_s).norm(), frame == 7 ? 1e-9 : 0.02) << frame;
+  }
+}
+
 }  // namespace
 }  // namespace ieslam
