@@ -78,8 +78,7 @@ int LocalizeCommand(const CommandArgs& args) {
   {
     const StopOnInterrupt interrupt;
     hooks.stop = interrupt.Poll();
-    result = LocalizeDataset(*dataset, map, options.source.frontend, options.source.database,
-                             options.source.prefetch, options.localize, hooks);
+    result = LocalizeDataset(*dataset, map, options.source, options.localize, hooks);
     progress.Finish();
     const MapFrameAlignment alignment = AlignMapToGroundTruth(map, result.refined_poses);
     evaluation = WriteLocalizeOutputs(output, *dataset, map_dir, map, options, result, alignment,

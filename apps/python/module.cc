@@ -170,8 +170,7 @@ py::dict Localize(const std::string& map_arg, const std::string& dataset, const 
     CheckMapCalibration(map, data->rig(), map_dir);
     LocalizeHooks hooks;
     hooks.stop = signals.Poll();
-    result = LocalizeDataset(*data, map, used.source.frontend, used.source.database,
-                             used.source.prefetch, used.localize, hooks);
+    result = LocalizeDataset(*data, map, used.source, used.localize, hooks);
     const MapFrameAlignment alignment = AlignMapToGroundTruth(map, result.refined_poses);
     report =
         LocalizeReport(*data, map_dir, map, used, result, alignment,

@@ -13,6 +13,7 @@
 #include "core/error.h"
 #include "core/stopwatch.h"
 #include "frontend/frame_prefetcher.h"
+#include "frontend/rolling_shutter.h"
 
 namespace ieslam {
 namespace {
@@ -59,6 +60,91 @@ Matrix6d FitInformation(const Eigen::Isometry3d& T_map_c,
   }
   return information;
 }
+
+// The frames of a dataset in order, as the front end makes them, each moved into the view of
+// its timestamp when the rig has a rolling shutter (frontend/rolling_shutter.h): its velocity
+// comes from its registrations to the frames before and after it, so one frame is taken
+// ahead. A frame that does not load keeps its error for when it is asked for.
+class LocalizedFrameSource {
+ public:
+  LocalizedFrameSource(const Dataset& dataset, const FrameProcessor& processor,
+                       const PrefetchOptions& prefetch, const FrontendOptions& frontend,
+                       double velocity_max_step_s, LocalizeTimings* seconds)
+      : dataset_(dataset),
+        frontend_(frontend),
+        prefetcher_(dataset, processor, prefetch),
+        seconds_(seconds) {
+    if (dataset.rig().colour_readout_s != 0.0) {
+      std::vector<double> timestamps;
+      for (int i = 0; i < dataset.size(); ++i) timestamps.push_back(dataset.info(i).timestamp);
+      velocities_ = std::make_unique<FrameVelocities>(std::move(timestamps), velocity_max_step_s);
+    }
+  }
+
+  // Frame i; frames are asked for in increasing order. Throws DataError as Dataset::Load does.
+  PrefetchedFrame Take(int i) {
+    // A copy: frame i as the front end made it stays for frame i + 1's step.
+    PrefetchedFrame taken = Fetch(i).frame;
+    const std::string error = Fetch(i).error;
+    if (!error.empty()) throw DataError(error);
+    if (velocities_ && taken.has_valid_depth && taken.processed.features.size() > 0) {
+      const std::optional<CameraVelocity> velocity =
+          velocities_->Of(i, [this](int later) { return RegisterStep(later); });
+      ProcessedFrame& frame = taken.processed;
+      for (size_t k = 0; velocity && k < frame.points.size(); ++k) {
+        frame.points[k] = CompensateRollingShutter(frame.points[k], frame.features.pixels[k].y(),
+                                                   *velocity, dataset_.rig());
+      }
+    }
+    held_.erase(held_.begin(), held_.lower_bound(i));
+    return taken;
+  }
+
+  const FrameVelocities* velocities() const { return velocities_.get(); }
+
+ private:
+  struct Held {
+    PrefetchedFrame frame;
+    std::string error;  // a frame that did not load
+  };
+
+  // Frame i as the front end made it, taken once from the prefetcher and held.
+  Held& Fetch(int i) {
+    auto it = held_.find(i);
+    if (it != held_.end()) return it->second;
+    Held held;
+    const auto start = std::chrono::steady_clock::now();
+    try {
+      held.frame = prefetcher_.Take(i);
+      seconds_->load += held.frame.seconds_load;
+      seconds_->extract += held.frame.processed.seconds_extract;
+      seconds_->lift += held.frame.processed.seconds_lift;
+      held.frame.processed.info = dataset_.info(i);
+    } catch (const DataError& e) {
+      held.error = e.what();
+    }
+    seconds_->fetch_wall += SecondsSince(start);
+    return held_.emplace(i, std::move(held)).first->second;
+  }
+
+  std::optional<Eigen::Isometry3d> RegisterStep(int later) {
+    const ProcessedFrame& a = Fetch(later - 1).frame.processed;
+    const ProcessedFrame& b = Fetch(later).frame.processed;
+    if (a.features.size() == 0 || b.features.size() == 0) return std::nullopt;
+    const FrameRegistration step = RegisterFrames(a, b, frontend_.matching, frontend_.registration);
+    seconds_->match += step.seconds_match;
+    seconds_->ransac += step.seconds_ransac;
+    if (!step.result.success) return std::nullopt;
+    return step.result.T_a_b;
+  }
+
+  const Dataset& dataset_;
+  const FrontendOptions& frontend_;
+  FramePrefetcher prefetcher_;
+  LocalizeTimings* seconds_;
+  std::unique_ptr<FrameVelocities> velocities_;  // rolling-shutter rigs only
+  std::map<int, Held> held_;
+};
 
 }  // namespace
 
@@ -305,15 +391,16 @@ RegistrationResult MapLocalizer::FitPool(const std::vector<PoolEntry>& pool,
 }
 
 LocalizeResult LocalizeDataset(const Dataset& dataset, const SavedMap& map,
-                               const FrontendOptions& frontend, const DatabaseOptions& database,
-                               const PrefetchOptions& prefetch, const LocalizeOptions& options,
+                               const RgbdSourceOptions& source, const LocalizeOptions& options,
                                const LocalizeHooks& hooks) {
   const auto start = std::chrono::steady_clock::now();
   LocalizeResult out;
-  MapLocalizer localizer(map, frontend, database, options);
+  const FrontendOptions& frontend = source.frontend;
+  MapLocalizer localizer(map, frontend, source.database, options);
   out.seconds.setup = SecondsSince(start);
   const FrameProcessor processor(dataset.rig(), frontend);
-  FramePrefetcher prefetcher(dataset, processor, prefetch);
+  LocalizedFrameSource frames(dataset, processor, source.prefetch, frontend,
+                              source.velocity_max_step_s, &out.seconds);
   bool lost = false;
   for (int i = 0; i < dataset.size(); ++i) {
     if (hooks.stop && hooks.stop()) {
@@ -325,14 +412,8 @@ LocalizeResult LocalizeDataset(const Dataset& dataset, const SavedMap& map,
     LocalizedFrame placed;
     placed.frame = i;
     placed.timestamp = info.timestamp;
-    const auto fetch_start = std::chrono::steady_clock::now();
     try {
-      PrefetchedFrame fetched = prefetcher.Take(i);
-      out.seconds.fetch_wall += SecondsSince(fetch_start);
-      out.seconds.load += fetched.seconds_load;
-      out.seconds.extract += fetched.processed.seconds_extract;
-      out.seconds.lift += fetched.processed.seconds_lift;
-      fetched.processed.info = info;
+      PrefetchedFrame fetched = frames.Take(i);
       const int needed = frontend.registration.min_inliers;
       if (!fetched.has_valid_depth) {
         placed.reason = name + "range image " + info.depth_path + " has no valid measurement";
@@ -345,7 +426,6 @@ LocalizeResult LocalizeDataset(const Dataset& dataset, const SavedMap& map,
         if (!placed.localized) placed.reason = name + placed.reason;
       }
     } catch (const DataError& e) {
-      out.seconds.fetch_wall += SecondsSince(fetch_start);
       placed.reason = e.what();  // Load's messages name the frame and the file
     }
     if (placed.localized) {
@@ -359,8 +439,9 @@ LocalizeResult LocalizeDataset(const Dataset& dataset, const SavedMap& map,
   }
   out.refined_poses = localizer.uses_refined_poses();
   out.database_queries = localizer.database_queries();
-  out.seconds.match = localizer.seconds_match();
-  out.seconds.ransac = localizer.seconds_ransac();
+  out.seconds.match += localizer.seconds_match();
+  out.seconds.ransac += localizer.seconds_ransac();
+  if (frames.velocities() != nullptr) out.velocity_counts = frames.velocities()->counts();
   out.seconds.total = SecondsSince(start);
   return out;
 }

@@ -34,6 +34,7 @@
 #include "frontend/frame_prefetcher.h"
 #include "frontend/frame_processor.h"
 #include "frontend/matcher.h"
+#include "frontend/rgbd_frame_source.h"
 #include "selection/pipeline/saved_map.h"
 
 namespace ieslam {
@@ -177,14 +178,16 @@ struct LocalizeResult {
   bool refined_poses = false;  // placed against the refined keyframes
   int database_queries = 0;    // frames the database ranked base frames for
   LocalizeTimings seconds;
+  // A rolling-shutter rig's frames: how many had a velocity from both neighbours, one, none.
+  std::optional<FrameVelocities::Counts> velocity_counts;
 };
 
-// Localises every frame of `dataset` in `map` with the front end of `frontend` (processing
-// frames ahead on prefetch.workers threads). A frame that does not load, or has too few
-// lifted keypoints, is a frame not placed, with the reason.
+// Localises every frame of `dataset` in `map` with the front end of `source` (its frontend and
+// database options; frames processed ahead on source.prefetch.workers threads; a rolling-shutter
+// rig's frames compensated as the mapping run's were, source.velocity_max_step_s). A frame that
+// does not load, or has too few lifted keypoints, is a frame not placed, with the reason.
 LocalizeResult LocalizeDataset(const Dataset& dataset, const SavedMap& map,
-                               const FrontendOptions& frontend, const DatabaseOptions& database,
-                               const PrefetchOptions& prefetch, const LocalizeOptions& options,
+                               const RgbdSourceOptions& source, const LocalizeOptions& options,
                                const LocalizeHooks& hooks);
 
 // The map-frame ground truth of a localisation: the rigid transform from the ground truth's

@@ -113,6 +113,14 @@ Json LocalizeReport(const Dataset& dataset, const std::string& map_dir, const Sa
              total > 0 ? static_cast<double>(result.localized_by_map) / total : 0.0);
   report.Set("resumptions", result.resumptions);
   report.Set("database_queries", result.database_queries);
+  if (result.velocity_counts) {
+    report.Set("rolling_shutter",
+               Json::Object()
+                   .Set("readout_s", dataset.rig().colour_readout_s)
+                   .Set("velocity_from_both_neighbours", result.velocity_counts->both)
+                   .Set("velocity_from_one_neighbour", result.velocity_counts->one)
+                   .Set("no_velocity", result.velocity_counts->none));
+  }
   Json not_placed = Json::Array();
   std::vector<double> inliers, features, sigmas;
   for (const LocalizedFrame& f : result.frames) {
