@@ -580,6 +580,9 @@ BundleAdjustmentProblem MakeProblemFromFilter(
     if (!filter.HasPose(frame_id)) continue;
     for (const FeatureObservation& obs : observations) {
       if (!filter.HasFeature(obs.feature_id)) {
+        // A pending feature (seen from too few poses to enter the filter: one, by default)
+        // constrains no pose; the filter did not use its sighting, nor does the problem.
+        if (filter.IsPending(obs.feature_id)) continue;
         throw DataError(ObservationName({frame_id, obs}) +
                         ": the filter does not hold the feature");
       }

@@ -139,8 +139,10 @@ struct BundleAdjustmentProblem {
 
 // The filter's current estimate as the initial value, anchored at the filter's first pose,
 // with the observations of `observations_by_frame` made from frames the filter holds (others
-// are skipped: they were not selected). Throws DataError naming the frame and the feature
-// when an observation of a selected frame refers to a feature the filter does not hold.
+// are skipped: they were not selected) of features in its state (sightings of pending
+// features, seen by too few poses to enter it, are skipped too: a feature seen from one pose
+// constrains none). Throws DataError naming the frame and the feature when an observation of
+// a selected frame refers to a feature the filter does not know.
 BundleAdjustmentProblem MakeProblemFromFilter(
     const InformationFilter& filter,
     const std::map<int, std::vector<FeatureObservation>>& observations_by_frame);

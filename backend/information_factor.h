@@ -19,6 +19,15 @@ namespace ieslam {
 
 class UpperColumnStorage;
 
+// An earlier sighting of a feature that enters the state with the pose being added (delayed
+// initialisation, InformationFilterOptions::min_sightings): the observation made from a pose
+// already in the state, which couples that pose with the new feature.
+struct EarlierSightingBlocks {
+  int pose_offset = 0;  // state offset of the earlier pose
+  Eigen::Matrix<double, 6, 6> I_cc = Eigen::Matrix<double, 6, 6>::Zero();  // added to its block
+  Eigen::Matrix<double, 6, 3> I_cf = Eigen::Matrix<double, 6, 3>::Zero();  // the coupling
+};
+
 // One observation of a feature from the pose being added: its blocks of the information
 // matrix.
 struct ObservationBlocks {
@@ -26,10 +35,15 @@ struct ObservationBlocks {
   bool is_new = false;                             // the feature enters with this pose
   Eigen::Matrix3d I_ff = Eigen::Matrix3d::Zero();  // added to the feature's block
   Eigen::Matrix<double, 6, 3> I_pf = Eigen::Matrix<double, 6, 3>::Zero();  // the coupling
+  // A new feature's sightings from earlier poses, in the order of their offsets (I_ff then
+  // holds theirs too); empty for a feature that enters at its first sighting.
+  std::vector<EarlierSightingBlocks> earlier;
 };
 
 // What a new pose does to I besides appending its columns: the new features' columns come
-// first, from old_dim on, then the pose's six.
+// first, from old_dim on, then the pose's six. Existing columns change only on diagonal
+// blocks: the re-observed features', and the earlier poses' of features that enter on a later
+// sighting (their couplings with those poses lie in the new features' columns).
 struct InformationUpdate {
   int old_dim = 0;  // I's dimension before the update
   // The pose's diagonal block (its observations and any prior).

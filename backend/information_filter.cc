@@ -45,80 +45,6 @@ const InformationFilterOptions& Checked(const InformationFilterOptions& options)
   return options;
 }
 
-// What ValidateObservations throws for, or empty.
-std::string ObservationsProblem(int frame_id, const std::vector<FeatureObservation>& observations) {
-  std::unordered_set<int64_t> seen;
-  for (const FeatureObservation& obs : observations) {
-    if (!seen.insert(obs.feature_id).second) {
-      return FrameName(frame_id) + " observes feature " + std::to_string(obs.feature_id) + " twice";
-    }
-    if (!obs.z.allFinite() || !(obs.z.z() > 0.0)) {
-      std::ostringstream msg;
-      msg << FrameName(frame_id) << ": observation of feature " << obs.feature_id
-          << " is not finite or has range <= 0: z = " << obs.z.transpose();
-      return msg.str();
-    }
-    if (!obs.Q.allFinite() || Eigen::LLT<Eigen::Matrix3d>(obs.Q).info() != Eigen::Success) {
-      std::ostringstream msg;
-      msg << FrameName(frame_id) << ": noise covariance Q of feature " << obs.feature_id
-          << " is not positive definite:\n"
-          << obs.Q;
-      return msg.str();
-    }
-  }
-  return std::string();
-}
-
-// log det of a symmetric positive definite matrix, or -infinity if it is not one.
-double LogDetSpd(const Eigen::MatrixXd& M) {
-  const Eigen::LLT<Eigen::MatrixXd> llt(M);
-  if (llt.info() != Eigen::Success) return -std::numeric_limits<double>::infinity();
-  const Eigen::VectorXd diagonal = llt.matrixLLT().diagonal();
-  if (!(diagonal.minCoeff() > 0.0)) return -std::numeric_limits<double>::infinity();
-  return 2.0 * diagonal.array().log().sum();
-}
-
-// The gain's map term log det(I + P (A - B C^-1 B^T)), from the known features' Cholesky
-// factors G (A = G G^T block by block), `bordered`'s last 6 rows holding Bt^T = (G^-1 B)^T,
-// and P from `known` at the blocks `in_known`; -infinity if it is not finite.
-//
-// Without n x n products: with A = G G^T and Bt = G^-1 B, the matrix determinant lemma and
-// Woodbury's identity give
-//   det(I + P M) = det K * det(C - N) / det C,   K = I + G^T P G,
-//   N = B^T (P^-1 + A)^-1 B = Bt^T (I - K^-1) Bt,
-// and as each J_f is square and invertible ((u, v, d) of a 3-D point: 3x3; A_s's Cholesky
-// checks it), C = Bt^T Bt, so C - N = Bt^T K^-1 Bt = Y^T Y with Y = L_K^-1 Bt. One Cholesky
-// of the bordered matrix [K, Bt; Bt^T, 2C] gives both: its factor is [L_K, 0; Y^T, L_2],
-// and 2C - Y^T Y >= C > 0 keeps it positive definite. K is formed block by block from P,
-// lower half only (all LLT reads; the strict upper part of `bordered` is never written, so
-// only its lower factor may be used), factored in place.
-double MapTerm(const std::vector<Eigen::Matrix3d>& G, const std::vector<int>& in_known,
-               const FeatureCovariance& known, const Matrix6d& C, double log_det_C,
-               Eigen::MatrixXd* bordered_matrix) {
-  Eigen::MatrixXd& bordered = *bordered_matrix;
-  const int num_known = static_cast<int>(G.size()), n = 3 * num_known;
-  for (int s = 0; s < num_known; ++s) {
-    for (int r = s; r < num_known; ++r) {
-      bordered.block<3, 3>(3 * r, 3 * s).noalias() =
-          G[r].transpose() * known.covariance.block<3, 3>(3 * in_known[r], 3 * in_known[s]) * G[s];
-    }
-  }
-  bordered.diagonal().head(n).array() += 1.0;
-  bordered.bottomRightCorner<6, 6>() = 2.0 * C;
-  const Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>> llt(bordered);
-  if (llt.info() != Eigen::Success) return -std::numeric_limits<double>::infinity();
-  const double log_det_K = 2.0 * bordered.diagonal().head(n).array().log().sum();
-  const auto Y_transpose = bordered.bottomLeftCorner(6, n);
-  const Matrix6d C_minus_N = Y_transpose * Y_transpose.transpose();
-  const double map_term = log_det_K + LogDetSpd(C_minus_N) - log_det_C;
-  if (!std::isfinite(map_term)) return -std::numeric_limits<double>::infinity();
-  return map_term;
-}
-
-}  // namespace
-
-namespace {
-
 bool ParseOrdering(const std::string& name, FillReducingOrdering* ordering) {
   const std::pair<const char*, FillReducingOrdering> names[] = {
       {"amd", FillReducingOrdering::kAmd},
@@ -190,6 +116,9 @@ const OptionTable<InformationFilterOptions>& InformationFilterOptions::Table() {
     t->Bool("adapt_noise", &O::adapt_noise,
             "scale a jointly incompatible frame's Q by its variance factor before dropping any");
     t->Double("max_noise_scale", &O::max_noise_scale, "the largest such scale of Q").Min(1.0);
+    t->Int("min_sightings", &O::min_sightings,
+           "filter poses that see a feature before it enters the state (2: delayed)")
+        .Range(1, 2);
     t->Require([](const O& o) {
       return o.max_dense_pose_dim == 0 || o.max_dense_pose_dim >= 6
                  ? std::string()
@@ -201,37 +130,66 @@ const OptionTable<InformationFilterOptions>& InformationFilterOptions::Table() {
   return *table;
 }
 
+std::string ObservationsProblem(int frame_id, const std::vector<FeatureObservation>& observations) {
+  std::unordered_set<int64_t> seen;
+  for (const FeatureObservation& obs : observations) {
+    if (!seen.insert(obs.feature_id).second) {
+      return FrameName(frame_id) + " observes feature " + std::to_string(obs.feature_id) + " twice";
+    }
+    if (!obs.z.allFinite() || !(obs.z.z() > 0.0)) {
+      std::ostringstream msg;
+      msg << FrameName(frame_id) << ": observation of feature " << obs.feature_id
+          << " is not finite or has range <= 0: z = " << obs.z.transpose();
+      return msg.str();
+    }
+    if (!obs.Q.allFinite() || Eigen::LLT<Eigen::Matrix3d>(obs.Q).info() != Eigen::Success) {
+      std::ostringstream msg;
+      msg << FrameName(frame_id) << ": noise covariance Q of feature " << obs.feature_id
+          << " is not positive definite:\n"
+          << obs.Q;
+      return msg.str();
+    }
+  }
+  return std::string();
+}
+
 void ValidateObservations(int frame_id, const std::vector<FeatureObservation>& observations) {
   const std::string problem = ObservationsProblem(frame_id, observations);
   if (!problem.empty()) throw DataError(problem);
 }
 
-// One observation's contribution H^T Q^-1 H and H^T Q^-1 (z - h + H X), split into the
-// blocks it touches.
-struct InformationFilter::Linearization {
-  struct Block {
-    int64_t feature_id = -1;
-    bool is_new = false;
-    Eigen::Vector3d p_w = Eigen::Vector3d::Zero();  // linearisation point of the feature
-    Eigen::Matrix3d I_ff = Eigen::Matrix3d::Zero();
-    Eigen::Matrix<double, 6, 3> I_pf = Eigen::Matrix<double, 6, 3>::Zero();
-    Eigen::Vector3d i_f = Eigen::Vector3d::Zero();
+// One feature's share of an update: what its observation from the new pose adds, and for a
+// feature entering on a later sighting what its earlier sightings add (H^T Q^-1 H and
+// H^T Q^-1 (z - h + H X), split into the blocks they touch).
+struct InformationFilter::LinearizedBlock {
+  // An earlier sighting, from a pose in the state.
+  struct Earlier {
+    int pose_offset = 0;
+    Matrix6d I_cc = Matrix6d::Zero();
+    Eigen::Matrix<double, 6, 3> I_cf = Eigen::Matrix<double, 6, 3>::Zero();
+    Vector6d i_c = Vector6d::Zero();
   };
+  int64_t feature_id = -1;
+  bool is_new = false;                            // enters the state with this pose
+  Eigen::Vector3d p_w = Eigen::Vector3d::Zero();  // linearisation point of the feature
+  Eigen::Matrix3d I_ff = Eigen::Matrix3d::Zero();
+  Eigen::Matrix<double, 6, 3> I_pf = Eigen::Matrix<double, 6, 3>::Zero();
+  Eigen::Vector3d i_f = Eigen::Vector3d::Zero();
+  std::vector<Earlier> earlier;  // by pose offset
+};
+
+// What an update brings.
+struct InformationFilter::Linearization {
+  using Block = LinearizedBlock;
   Vector6d T_w_c = Vector6d::Zero();
   Matrix6d I_pp = Matrix6d::Zero();
   Vector6d i_p = Vector6d::Zero();
   std::vector<Block> blocks;  // known features, then new ones, each in observation order
   int num_known = 0;
   int num_new = 0;
-};
-
-// The observation model h(T_w_c, p_w) (eqs. 4-8) linearised at one point.
-struct InformationFilter::ObservationJacobians {
-  Eigen::Vector3d p_w = Eigen::Vector3d::Zero();  // the feature's linearisation point
-  double depth = 0.0;                             // of p_w in the camera
-  Eigen::Vector3d h = Eigen::Vector3d::Zero();    // the predicted observation
-  Matrix36d J_p = Matrix36d::Zero();
-  Eigen::Matrix3d J_f = Eigen::Matrix3d::Zero();
+  int num_tied = 0;  // new ones with earlier sightings: they tie the pose to the map
+  // Sightings of features that do not enter (min_sightings): they wait aside.
+  std::vector<FeatureObservation> deferred;
 };
 
 // What an update overwrites, to take it back when the factor refuses it.
@@ -255,15 +213,77 @@ std::unique_ptr<InformationFactor> InformationFilter::NewFactor() const {
 
 InformationFilter::~InformationFilter() = default;
 
+bool InformationFilter::Enters(int64_t feature_id) const {
+  if (HasFeature(feature_id)) return false;
+  const std::vector<FeatureSighting>* sightings = PendingSightings(feature_id);
+  const int seen = sightings == nullptr ? 0 : static_cast<int>(sightings->size());
+  return seen + 1 >= options_.min_sightings;
+}
+
+std::vector<PendingFeature> InformationFilter::PendingFeatures() const {
+  std::vector<PendingFeature> pending;
+  pending.reserve(pending_.size());
+  for (const auto& [id, sightings] : pending_) pending.push_back({id, sightings});
+  return pending;
+}
+
+Eigen::Vector3d InformationFilter::LinearisationPoint(const Vector6d& T_w_c,
+                                                      const FeatureObservation& obs) const {
+  if (HasFeature(obs.feature_id)) return FeatureEstimate(obs.feature_id);
+  const std::vector<FeatureSighting>* sightings = PendingSightings(obs.feature_id);
+  if (sightings == nullptr) return ObservationToWorld(T_w_c, obs.z, camera_);
+  // The earliest pose has been estimated longest; the candidate's is only registered.
+  const FeatureSighting& first = sightings->front();
+  return ObservationToWorld(state_.segment<6>(pose_offset_.at(first.frame_id)), first.observation.z,
+                            camera_);
+}
+
 bool InformationFilter::LinearizeObservation(const Vector6d& T_w_c, const FeatureObservation& obs,
-                                             bool is_new, ObservationJacobians* jacobians) const {
-  jacobians->p_w =
-      is_new ? ObservationToWorld(T_w_c, obs.z, camera_) : FeatureEstimate(obs.feature_id);
+                                             ObservationJacobians* jacobians) const {
+  return LinearizeAt(T_w_c, LinearisationPoint(T_w_c, obs), jacobians);
+}
+
+bool InformationFilter::LinearizeAt(const Vector6d& T_w_c, const Eigen::Vector3d& p_w,
+                                    ObservationJacobians* jacobians) const {
+  jacobians->p_w = p_w;
   jacobians->depth = WorldToCamera(T_w_c, jacobians->p_w).z();
   if (!(jacobians->depth > options_.min_depth_m)) return false;
   jacobians->h =
       PredictObservation(T_w_c, jacobians->p_w, camera_, &jacobians->J_p, &jacobians->J_f);
   return true;
+}
+
+void InformationFilter::LinearizeEarlierSightings(int frame_id,
+                                                  const std::vector<FeatureSighting>& sightings,
+                                                  LinearizedBlock* block) const {
+  for (const FeatureSighting& sighting : sightings) {
+    LinearizedBlock::Earlier earlier;
+    earlier.pose_offset = pose_offset_.at(sighting.frame_id);
+    const Vector6d T_w_c = state_.segment<6>(earlier.pose_offset);
+    ObservationJacobians jacobians;
+    if (!LinearizeAt(T_w_c, block->p_w, &jacobians)) {
+      std::ostringstream msg;
+      msg << FrameName(frame_id) << ": feature " << block->feature_id << " lies at depth "
+          << jacobians.depth << " m in frame " << sighting.frame_id
+          << ", which saw it earlier; cannot linearise that sighting";
+      throw DataError(msg.str());
+    }
+    const FeatureObservation& obs = sighting.observation;
+    const Eigen::Matrix3d W = obs.Q.inverse();
+    const Eigen::Matrix<double, 6, 3> JcT_W = jacobians.J_p.transpose() * W;
+    const Eigen::Matrix3d JfT_W = jacobians.J_f.transpose() * W;
+    // Eq. 9 at the earlier pose's current estimate.
+    const Eigen::Vector3d z_lin =
+        obs.z - jacobians.h + jacobians.J_p * T_w_c + jacobians.J_f * block->p_w;
+    earlier.I_cc = JcT_W * jacobians.J_p;
+    earlier.I_cf = JcT_W * jacobians.J_f;
+    earlier.i_c = JcT_W * z_lin;
+    block->I_ff += JfT_W * jacobians.J_f;
+    block->i_f += JfT_W * z_lin;
+    block->earlier.push_back(earlier);
+  }
+  std::stable_sort(block->earlier.begin(), block->earlier.end(),
+                   [](const auto& a, const auto& b) { return a.pose_offset < b.pose_offset; });
 }
 
 InformationFilter::Linearization InformationFilter::Linearize(
@@ -277,9 +297,13 @@ InformationFilter::Linearization InformationFilter::Linearize(
     Linearization::Block block;
     block.feature_id = obs.feature_id;
     block.is_new = !HasFeature(obs.feature_id);
+    if (block.is_new && !Enters(obs.feature_id)) {
+      lin.deferred.push_back(obs);
+      continue;
+    }
     if (block.is_new && static_cast<int>(new_blocks.size()) >= max_new_features) continue;
     ObservationJacobians jacobians;
-    if (!LinearizeObservation(T_w_c, obs, block.is_new, &jacobians)) {
+    if (!LinearizeObservation(T_w_c, obs, &jacobians)) {
       std::ostringstream msg;
       msg << FrameName(frame_id) << ": feature " << obs.feature_id << " lies at depth "
           << jacobians.depth
@@ -301,9 +325,14 @@ InformationFilter::Linearization InformationFilter::Linearize(
     block.I_ff = JfT_W * J_f;
     block.i_f = JfT_W * z_lin;
     if (block.is_new) {
-      new_blocks.push_back(block);
+      const std::vector<FeatureSighting>* earlier = PendingSightings(obs.feature_id);
+      if (earlier != nullptr) {
+        LinearizeEarlierSightings(frame_id, *earlier, &block);
+        ++lin.num_tied;
+      }
+      new_blocks.push_back(std::move(block));
     } else {
-      lin.blocks.push_back(block);
+      lin.blocks.push_back(std::move(block));
     }
   }
   lin.num_known = static_cast<int>(lin.blocks.size());
@@ -328,9 +357,17 @@ void InformationFilter::AppendToMatrix(const Linearization& lin, double pose_pri
     }
     const int offset = first_new + 3 * (b - lin.num_known);
     CHECK_EQ(offset, matrix->dim());
+    // A feature entering on a later sighting couples with the earlier poses in its own
+    // columns, and adds to their diagonal blocks.
     for (int k = 0; k < 3; ++k) {
       matrix->StartColumn();
+      for (const LinearizedBlock::Earlier& earlier : block.earlier) {
+        for (int r = 0; r < 6; ++r) matrix->Append(earlier.pose_offset + r, earlier.I_cf(r, k));
+      }
       for (int r = 0; r <= k; ++r) matrix->Append(offset + r, block.I_ff(r, k));
+    }
+    for (const LinearizedBlock::Earlier& earlier : block.earlier) {
+      matrix->AddToDiagonalBlock(earlier.pose_offset, earlier.I_cc);
     }
     coupled.emplace_back(offset, &block);
   }
@@ -368,8 +405,10 @@ void InformationFilter::Update(int frame_id, const Vector6d& T_w_c,
   }
   if (!T_w_c.allFinite()) throw DataError(FrameName(frame_id) + ": initial pose is not finite");
   const Linearization lin = Linearize(frame_id, T_w_c, observations, INT_MAX);
-  if (!anchor && lin.num_known < options_.min_known_features) {
-    throw DataError(FrameName(frame_id) + " observes " + std::to_string(lin.num_known) +
+  // A pending feature entering now ties the pose to the earlier poses that saw it.
+  const int tying = lin.num_known + lin.num_tied;
+  if (!anchor && tying < options_.min_known_features) {
+    throw DataError(FrameName(frame_id) + " observes " + std::to_string(tying) +
                     " features already in the map; a new pose needs at least " +
                     std::to_string(options_.min_known_features));
   }
@@ -423,6 +462,12 @@ InformationFilter::Undo InformationFilter::AddToInformation(const Linearization&
     const int offset = feature_offset_.at(lin.blocks[b].feature_id);
     undo.saved_blocks.emplace_back(offset, matrix_.DiagonalBlock(offset, 3));
   }
+  for (int b = lin.num_known; b < static_cast<int>(lin.blocks.size()); ++b) {
+    for (const LinearizedBlock::Earlier& earlier : lin.blocks[b].earlier) {
+      undo.saved_blocks.emplace_back(earlier.pose_offset,
+                                     matrix_.DiagonalBlock(earlier.pose_offset, 6));
+    }
+  }
   undo.saved_info_vector = info_vector_;
   AppendToMatrix(lin, pose_prior, &matrix_);
   info_vector_.conservativeResize(matrix_.dim());
@@ -432,6 +477,9 @@ InformationFilter::Undo InformationFilter::AddToInformation(const Linearization&
                                     : feature_offset_.at(block.feature_id);
     if (block.is_new) info_vector_.segment<3>(offset).setZero();
     info_vector_.segment<3>(offset) += block.i_f;
+    for (const LinearizedBlock::Earlier& earlier : block.earlier) {
+      info_vector_.segment<6>(earlier.pose_offset) += earlier.i_c;
+    }
   }
   info_vector_.tail<6>() = lin.i_p + pose_prior * T_w_c;
   return undo;
@@ -452,7 +500,15 @@ InformationUpdate InformationFilter::FactorUpdate(const Linearization& lin, int 
     const Linearization::Block& block = lin.blocks[b];
     const int offset =
         block.is_new ? old_dim + 3 * (b - lin.num_known) : feature_offset_.at(block.feature_id);
-    update.observations.push_back({offset, block.is_new, block.I_ff, block.I_pf});
+    ObservationBlocks blocks;
+    blocks.feature_offset = offset;
+    blocks.is_new = block.is_new;
+    blocks.I_ff = block.I_ff;
+    blocks.I_pf = block.I_pf;
+    for (const LinearizedBlock::Earlier& earlier : block.earlier) {
+      blocks.earlier.push_back({earlier.pose_offset, earlier.I_cc, earlier.I_cf});
+    }
+    update.observations.push_back(std::move(blocks));
   }
   return update;
 }
@@ -469,6 +525,10 @@ void InformationFilter::Register(const Linearization& lin, int frame_id, int old
   for (int b = lin.num_known; b < static_cast<int>(lin.blocks.size()); ++b) {
     feature_offset_[lin.blocks[b].feature_id] = old_dim + 3 * (b - lin.num_known);
     feature_ids_.push_back(lin.blocks[b].feature_id);
+    if (!lin.blocks[b].earlier.empty()) pending_.erase(lin.blocks[b].feature_id);
+  }
+  for (const FeatureObservation& obs : lin.deferred) {
+    pending_[obs.feature_id].push_back({frame_id, obs});
   }
   pose_offset_[frame_id] = new_dim - 6;
   frame_ids_.push_back(frame_id);
@@ -561,95 +621,13 @@ Matrix6d InformationFilter::PoseCovariance(int frame_id) const {
   return MarginalCovariance({VariableRef::Pose(frame_id)});
 }
 
-FeatureCovariance InformationFilter::JointFeatureCovariance(
-    const std::vector<int64_t>& feature_ids) const {
-  FeatureCovariance result;
-  std::vector<VariableRef> variables;
-  for (const int64_t id : feature_ids) {
-    if (!HasFeature(id) || result.index.count(id) > 0) continue;
-    result.index[id] = static_cast<int>(result.feature_ids.size());
-    result.feature_ids.push_back(id);
-    variables.push_back(VariableRef::Feature(id));
-  }
-  result.covariance = variables.empty() ? Eigen::MatrixXd(0, 0) : MarginalCovariance(variables);
-  return result;
-}
-
-int InformationFilter::CountNewFeatures(const std::vector<FeatureObservation>& observations) const {
-  int count = 0;
-  for (const FeatureObservation& obs : observations) count += HasFeature(obs.feature_id) ? 0 : 1;
-  return count;
-}
-
-// The exact gain of adding the candidate, without the expanded matrix (§V-A). With S the
-// known features the candidate observes and P_SS their joint covariance,
-//   gain = sum_new log det(J_f^T W J_f) + log det C + log det(I + P_SS (A - B C^-1 B^T)),
-// A = sum J_S^T W J_S, B = sum J_S^T W J_p, C = sum J_p^T W J_p over the known features'
-// observations. A new feature seen once couples to the pose only through a block that
-// cancels when it is marginalised, hence its lone term.
-double InformationFilter::InformationGain(const Vector6d& T_w_c_candidate,
-                                          const std::vector<FeatureObservation>& observations,
-                                          int num_new_features_to_count,
-                                          const FeatureCovariance& known, GainTerms* terms) const {
-  constexpr double kMinusInfinity = -std::numeric_limits<double>::infinity();
-  CheckRecovered();
-  if (!ObservationsProblem(-1, observations).empty()) return kMinusInfinity;
-  const int num_known = static_cast<int>(observations.size()) - CountNewFeatures(observations);
-  // Per known feature s: G_s with A_s = J_f^T W J_f = G_s G_s^T, and Bt_s = G_s^-1 B_s,
-  // stored transposed in the last 6 rows of the bordered matrix MapTerm factors.
-  const int n = 3 * num_known;
-  std::vector<Eigen::Matrix3d> G;
-  G.reserve(num_known);
-  Eigen::MatrixXd bordered(n + 6, n + 6);
-  Matrix6d C = Matrix6d::Zero();
-  std::vector<int> in_known;  // block of each of S in known.covariance
-  double new_features_term = 0.0;
-  int num_counted = 0;
-  for (const FeatureObservation& obs : observations) {
-    const bool is_new = !HasFeature(obs.feature_id);
-    if (is_new && num_new_features_to_count >= 0 && num_counted >= num_new_features_to_count) {
-      continue;
-    }
-    ObservationJacobians jacobians;
-    if (!LinearizeObservation(T_w_c_candidate, obs, is_new, &jacobians)) return kMinusInfinity;
-    const Matrix36d& J_p = jacobians.J_p;
-    const Eigen::Matrix3d& J_f = jacobians.J_f;
-    const Eigen::Matrix3d W = obs.Q.inverse();
-    if (is_new) {
-      new_features_term += LogDetSpd(J_f.transpose() * W * J_f);
-      ++num_counted;
-      continue;
-    }
-    const auto it = known.index.find(obs.feature_id);
-    CHECK(it != known.index.end())
-        << "feature " << obs.feature_id << " is missing from the FeatureCovariance";
-    const int s = static_cast<int>(in_known.size());
-    in_known.push_back(it->second);
-    const Eigen::LLT<Eigen::Matrix3d> A_s(J_f.transpose() * W * J_f);
-    CHECK(A_s.info() == Eigen::Success) << "a known feature's information is not positive definite";
-    G.push_back(A_s.matrixL());
-    bordered.block<6, 3>(n, 3 * s) = A_s.matrixL().solve(J_f.transpose() * W * J_p).transpose();
-    C += J_p.transpose() * W * J_p;
-  }
-  CHECK(num_new_features_to_count < 0 || num_counted == num_new_features_to_count)
-      << "the candidate has " << num_counted << " new features, asked to count "
-      << num_new_features_to_count;
-
-  const double log_det_C = LogDetSpd(C);
-  if (!std::isfinite(log_det_C)) return kMinusInfinity;
-  const double map_term = MapTerm(G, in_known, known, C, log_det_C, &bordered);
-  if (!std::isfinite(map_term)) return kMinusInfinity;
-  if (terms != nullptr) *terms = {new_features_term, log_det_C, map_term};
-  return new_features_term + log_det_C + map_term;
-}
-
 double InformationFilter::LogDetExpandedInformation(
     const Vector6d& T_w_c_candidate, const std::vector<FeatureObservation>& observations,
     int num_new_features_to_count) const {
   const int max_new = num_new_features_to_count < 0 ? INT_MAX : num_new_features_to_count;
   const Linearization lin = Linearize(-1, T_w_c_candidate, observations, max_new);
   CHECK(num_new_features_to_count < 0 || lin.num_new == num_new_features_to_count)
-      << "the candidate has " << lin.num_new << " new features, asked to count "
+      << "the candidate has " << lin.num_new << " entering features, asked to count "
       << num_new_features_to_count;
   UpperColumnStorage expanded = matrix_;
   AppendToMatrix(lin, 0.0, &expanded);

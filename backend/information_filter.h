@@ -13,9 +13,19 @@
 // the exact gain log det I(k+1) - log det I(k) of adding a candidate, without the expanded
 // matrix, in O(|S|^3) per candidate once the joint covariance of the features the candidates
 // observe has been recovered.
+//
+// Delayed feature initialisation (options.min_sightings): a feature enters the state only
+// once that many filter poses have seen it. Until then its sightings (frame, z, Q) wait aside
+// as a pending feature, adding nothing to the state; at the sighting that completes them it
+// enters with all of them, the earlier ones linearised at their poses' current estimates.
+// With every pose kept in the state (no motion model) that is exact in information form: the
+// result is the filter that would have had the feature from its first sighting with those
+// linearisation points. A feature seen from one pose only constrains no pose, and would
+// otherwise cost three state dimensions for nothing.
 #pragma once
 
 #include <cstdint>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -87,6 +97,11 @@ struct InformationFilterOptions {
   // innovations frame by frame.
   bool adapt_noise = true;
   double max_noise_scale = 100.0;
+  // Filter poses that must see a feature before it enters the state (delayed initialisation,
+  // above): 1 adds every feature at its first sighting, as the paper does; 2 at its second.
+  // No more: a new pose is tied to the map only by features in the state or entering with
+  // it, and at 3 the second pose would have neither.
+  int min_sightings = 1;
 
   // The options' registration: keys, help, checks (core/option_table.h).
   static const OptionTable<InformationFilterOptions>& Table();
@@ -104,17 +119,40 @@ struct VariableRef {
 };
 
 // The joint marginal covariance of a set of features, recovered once from the factor and
-// then shared by every candidate of a look-ahead buffer.
+// then shared by every candidate of a look-ahead buffer; with delayed initialisation also of
+// the poses that saw the pending features a candidate would bring into the state.
 struct FeatureCovariance {
   std::vector<int64_t> feature_ids;
   std::unordered_map<int64_t, int> index;  // feature id -> position in feature_ids
-  Eigen::MatrixXd covariance;              // 3 * feature_ids.size() square
+  std::vector<int> frame_ids;              // the poses, after the features
+  std::unordered_map<int, int> pose_row;   // frame id -> first row of its block in covariance
+  Eigen::MatrixXd covariance;              // 3 * feature_ids.size() + 6 * frame_ids.size() square
+};
+
+// A sighting of a pending feature: the observation and the filter pose that made it.
+struct FeatureSighting {
+  int frame_id = -1;
+  FeatureObservation observation;
+};
+
+// A feature seen by too few poses to be in the state yet (min_sightings).
+struct PendingFeature {
+  int64_t id = -1;
+  std::vector<FeatureSighting> sightings;  // in the order the poses entered
 };
 
 // The three terms of an information gain (§V-A), in nats: the new features' own
 // blocks, the new pose (log det C), and what the candidate tells about the features already
 // in the map, log det(I + P_SS (A - B C^-1 B^T)). The first two are nearly the same for every
 // candidate of a buffer under the equal-dimension rule; the map term is what sets them apart.
+//
+// With delayed initialisation the pending features count as the map's: the terms are those
+// of the filter that would have held them since their first sightings (the gain of that
+// filter is this one's less the entering features' first sightings' own blocks, which it
+// holds already). So new_features holds those blocks (and, at min_sightings 1, the new
+// features' own blocks), pose is log det of the pose's information from the known and the
+// entering features, and map the rest: what the candidate tells about the features and
+// poses the filter holds or has seen, which is what the selector's threshold is about.
 struct GainTerms {
   double new_features = 0.0;
   double pose = 0.0;
@@ -136,6 +174,8 @@ struct InformationFilterTimings {
 // twice, an observation is not finite or has no positive range, or a Q is not positive
 // definite.
 void ValidateObservations(int frame_id, const std::vector<FeatureObservation>& observations);
+// What ValidateObservations throws for, or "".
+std::string ObservationsProblem(int frame_id, const std::vector<FeatureObservation>& observations);
 
 // The filter as it stands, for saving and restoring it: I's upper triangle in compressed
 // columns, i, the state, and each pose's and feature's offset in them, in the order they
@@ -149,6 +189,7 @@ struct FilterSnapshot {
   Eigen::VectorXd state;
   std::vector<std::pair<int, int>> pose_offsets;         // (frame id, offset)
   std::vector<std::pair<int64_t, int>> feature_offsets;  // (feature id, offset)
+  std::vector<PendingFeature> pending;                   // by id
 };
 
 class InformationFilter {
@@ -164,10 +205,13 @@ class InformationFilter {
                     const std::vector<FeatureObservation>& observations);
 
   // Appends a pose (initialised from the caller's registration estimate), initialises the
-  // features never seen before from their observation at that pose, applies the EIF update
-  // and recovers the state. Throws DataError naming the frame when the frame id is taken,
-  // an observation is malformed, fewer than options.min_known_features known features are
-  // observed, or the updated matrix is not positive definite; the filter is then unchanged.
+  // features that enter with it (options.min_sightings: never seen before, or pending and
+  // seen often enough now) from their first sighting, keeps the sightings of the others
+  // aside, applies the EIF update and recovers the state. A pending feature entering counts
+  // as known for min_known_features: its earlier sightings tie the pose to the map. Throws
+  // DataError naming the frame when the frame id is taken, an observation is malformed,
+  // fewer than options.min_known_features known features are observed, or the updated
+  // matrix is not positive definite; the filter is then unchanged.
   void AddPose(int frame_id, const Vector6d& T_w_c_initial,
                const std::vector<FeatureObservation>& observations);
 
@@ -192,7 +236,16 @@ class InformationFilter {
   void Restore(const FilterSnapshot& snapshot);
 
   bool HasPose(int frame_id) const { return pose_offset_.count(frame_id) > 0; }
+  // In the state.
   bool HasFeature(int64_t feature_id) const { return feature_offset_.count(feature_id) > 0; }
+  // Seen, but by fewer poses than min_sightings: not in the state.
+  bool IsPending(int64_t feature_id) const { return pending_.count(feature_id) > 0; }
+  // Whether `feature_id` enters the state with a new pose that observes it: not in it, and
+  // with that sighting seen by min_sightings poses.
+  bool Enters(int64_t feature_id) const;
+  int num_pending_features() const { return static_cast<int>(pending_.size()); }
+  // By id.
+  std::vector<PendingFeature> PendingFeatures() const;
   Vector6d pose(int frame_id) const;
   Eigen::Vector3d feature(int64_t feature_id) const;
 
@@ -220,17 +273,27 @@ class InformationFilter {
   // pose, 3 for a feature), from solves against their columns only.
   Eigen::MatrixXd MarginalCovariance(const std::vector<VariableRef>& variables) const;
 
-  // --- Information gain for the frame selector (§V-A). ---
-  // Joint covariance of the known features among `feature_ids` (unknown ids are skipped).
-  FeatureCovariance JointFeatureCovariance(const std::vector<int64_t>& feature_ids) const;
-  // Features among `observations` not yet in the map.
+  // --- Information gain for the frame selector (§V-A; backend/information_filter_gain.cc). ---
+  // Joint covariance of the known features among `feature_ids` (unknown ids are skipped) and
+  // of the poses of `frame_ids` (which must be in the filter).
+  FeatureCovariance JointFeatureCovariance(const std::vector<int64_t>& feature_ids,
+                                           const std::vector<int>& frame_ids = {}) const;
+  // Features among `observations` not yet in the state (new or pending).
   int CountNewFeatures(const std::vector<FeatureObservation>& observations) const;
+  // Features that adding a pose with `observations` brings into the state: the new ones
+  // (min_sightings 1), or the pending ones this sighting completes.
+  int CountEnteringFeatures(const std::vector<FeatureObservation>& observations) const;
+  // The frames whose earlier sightings of those entering features join them: the poses
+  // whose covariance InformationGain needs in `known`, ascending.
+  std::vector<int> EarlierSightingFrames(const std::vector<FeatureObservation>& observations) const;
   // log det I(k+1) - log det I(k) for adding a pose at T_w_c_candidate with these
-  // observations, counting only the first num_new_features_to_count new features (the
-  // equal-dimension rule; a negative value counts all). `known` must cover every known
-  // feature observed. Returns -infinity when the observations cannot be linearised (one is
-  // malformed, as ValidateObservations says, or a feature lies within min_depth_m of the
-  // candidate camera's plane or behind it) or cannot determine the pose.
+  // observations, counting only the first num_new_features_to_count entering features (the
+  // equal-dimension rule on the state's new dimensions; a negative value counts all); the
+  // sightings that stay pending add nothing. `known` must cover every known feature
+  // observed, and the earlier sightings' poses of the counted entering features. Returns
+  // -infinity when the observations cannot be linearised (one is malformed, as
+  // ValidateObservations says, or a feature lies within min_depth_m of the camera's plane
+  // or behind it) or cannot determine the pose.
   double InformationGain(const Vector6d& T_w_c_candidate,
                          const std::vector<FeatureObservation>& observations,
                          int num_new_features_to_count, const FeatureCovariance& known,
@@ -251,17 +314,35 @@ class InformationFilter {
 
  private:
   struct Linearization;
-  struct ObservationJacobians;
+  struct LinearizedBlock;
   struct Undo;
+  // The observation model h(T_w_c, p_w) (eqs. 4-8) linearised at one point.
+  struct ObservationJacobians {
+    Eigen::Vector3d p_w = Eigen::Vector3d::Zero();  // the feature's linearisation point
+    double depth = 0.0;                             // of p_w in the camera
+    Eigen::Vector3d h = Eigen::Vector3d::Zero();    // the predicted observation
+    Matrix36d J_p = Matrix36d::Zero();
+    Eigen::Matrix3d J_f = Eigen::Matrix3d::Zero();
+  };
 
   // A factor of no matrix yet: the dense pose Schur complement, then the sparse one.
   std::unique_ptr<InformationFactor> NewFactor() const;
 
-  // One observation's Jacobians at T_w_c and its feature's linearisation point (a new
-  // feature's from the observation, a known one's current estimate). False when that point
-  // lies within min_depth_m of the camera plane or behind it: it cannot be linearised.
-  bool LinearizeObservation(const Vector6d& T_w_c, const FeatureObservation& obs, bool is_new,
+  // The sightings of a pending feature, or nullptr.
+  const std::vector<FeatureSighting>* PendingSightings(int64_t feature_id) const {
+    const auto it = pending_.find(feature_id);
+    return it == pending_.end() ? nullptr : &it->second;
+  }
+  // A feature's linearisation point: a known one's current estimate; an entering one's first
+  // sighting back-projected from its pose's estimate (from T_w_c when this is its first).
+  Eigen::Vector3d LinearisationPoint(const Vector6d& T_w_c, const FeatureObservation& obs) const;
+  // One observation's Jacobians at T_w_c and the feature's linearisation point (above).
+  // False when that point lies within min_depth_m of the camera plane or behind it: it
+  // cannot be linearised.
+  bool LinearizeObservation(const Vector6d& T_w_c, const FeatureObservation& obs,
                             ObservationJacobians* jacobians) const;
+  bool LinearizeAt(const Vector6d& T_w_c, const Eigen::Vector3d& p_w,
+                   ObservationJacobians* jacobians) const;
   // Jacobians at the current estimate (new pose and new features at their initial values).
   // Throws DataError naming the frame when an observation cannot be linearised.
   Linearization Linearize(int frame_id, const Vector6d& T_w_c,
@@ -280,7 +361,19 @@ class InformationFilter {
   InformationUpdate FactorUpdate(const Linearization& lin, int old_dim, double pose_prior) const;
   // Deferred: the new pose and features enter the state at their initial values.
   void GrowState(const Linearization& lin, int old_dim);
-  // Records the new pose's and features' places once their update is accepted.
+  // The Jacobians of an entering feature's earlier sightings at their poses' estimates and
+  // the feature's linearisation point p_w, whitened (U J with U^T U = Q^-1): three rows per
+  // sighting, J_f's 3 columns and each sighting's pose's 6. False when one cannot be
+  // linearised.
+  bool WhitenedEarlierSightings(const std::vector<FeatureSighting>& sightings,
+                                const Eigen::Vector3d& p_w, Eigen::MatrixXd* J_f,
+                                Eigen::MatrixXd* J_c) const;
+  // Adds an entering feature's earlier sightings to its block (at their poses' estimates).
+  // Throws DataError naming the frame when one cannot be linearised.
+  void LinearizeEarlierSightings(int frame_id, const std::vector<FeatureSighting>& sightings,
+                                 LinearizedBlock* block) const;
+  // Records the new pose's and features' places once their update is accepted, and the
+  // sightings that stay pending.
   void Register(const Linearization& lin, int frame_id, int old_dim, int new_dim);
   std::vector<int> ScalarIndices(const std::vector<VariableRef>& variables) const;
   void CheckRecovered() const;
@@ -305,6 +398,8 @@ class InformationFilter {
   std::vector<int64_t> feature_ids_;
   std::unordered_map<int, int> pose_offset_;
   std::unordered_map<int64_t, int> feature_offset_;
+  // Features not in the state yet (min_sightings), by id: sightings in the order made.
+  std::map<int64_t, std::vector<FeatureSighting>> pending_;
   InformationFilterTimings timings_;
   bool defer_recovery_ = false;
   bool recovery_pending_ = false;

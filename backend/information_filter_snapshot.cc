@@ -88,11 +88,35 @@ std::map<int, std::pair<bool, int>> CheckLayout(const FilterSnapshot& s) {
   return variables;
 }
 
+// The couplings of the feature at `feature` with the earlier poses that saw it before it
+// entered (delayed initialisation): the pose rows of its columns. Their share of the poses'
+// diagonal blocks is in those blocks already (the snapshot's are final), so none is added.
+std::vector<EarlierSightingBlocks> EarlierSightings(const FilterSnapshot& s,
+                                                    const std::vector<int>& pose_at, int feature) {
+  std::map<int, Eigen::Matrix<double, 6, 3>> couplings;  // pose offset -> I_cf
+  for (int j = 0; j < 3; ++j) {
+    for (int k = s.column_starts[feature + j]; k < s.column_starts[feature + j + 1]; ++k) {
+      const int row = s.rows[k];
+      if (row >= feature) break;
+      auto [it, added] = couplings.try_emplace(pose_at[row]);
+      if (added) it->second.setZero();
+      it->second(row - pose_at[row], j) = s.values[k];
+    }
+  }
+  std::vector<EarlierSightingBlocks> earlier;
+  for (const auto& [pose, I_cf] : couplings) {
+    earlier.push_back({pose, Eigen::Matrix<double, 6, 6>::Zero(), I_cf});
+  }
+  return earlier;
+}
+
 // The update the pose at `offset` made, from its columns of `matrix` (filled up to that pose's
 // last column): its diagonal block, its couplings, and the diagonal blocks of the features that
-// entered with it (those from `pose_end`, where the pose before ended, to `offset`).
+// entered with it (those from `pose_end`, where the pose before ended, to `offset`) with their
+// couplings to earlier poses.
 InformationUpdate PoseUpdate(const FilterSnapshot& s, const UpperColumnStorage& matrix,
-                             const std::vector<int>& feature_at, int offset, int pose_end) {
+                             const std::vector<int>& feature_at, const std::vector<int>& pose_at,
+                             int offset, int pose_end) {
   InformationUpdate update;
   update.old_dim = pose_end;
   update.pose_block = matrix.DiagonalBlock(offset, 6);
@@ -110,8 +134,8 @@ InformationUpdate PoseUpdate(const FilterSnapshot& s, const UpperColumnStorage& 
     const bool is_new = feature >= pose_end;
     update.observations.push_back(
         {feature, is_new,
-         is_new ? Eigen::Matrix3d(matrix.DiagonalBlock(feature, 3)) : Eigen::Matrix3d::Zero(),
-         I_pf});
+         is_new ? Eigen::Matrix3d(matrix.DiagonalBlock(feature, 3)) : Eigen::Matrix3d::Zero(), I_pf,
+         is_new ? EarlierSightings(s, pose_at, feature) : std::vector<EarlierSightingBlocks>()});
   }
   for (int f = pose_end; f < offset; f += 3) {
     if (couplings.count(f) == 0) {
@@ -120,6 +144,35 @@ InformationUpdate PoseUpdate(const FilterSnapshot& s, const UpperColumnStorage& 
     }
   }
   return update;
+}
+
+// The pending features by id, checked: each not in the state, seen at least once, its
+// sightings from poses in the state and well formed.
+std::map<int64_t, std::vector<FeatureSighting>> CheckPending(
+    const FilterSnapshot& s, const std::unordered_map<int, int>& pose_offset,
+    const std::unordered_map<int64_t, int>& feature_offset) {
+  std::map<int64_t, std::vector<FeatureSighting>> pending;
+  for (const PendingFeature& feature : s.pending) {
+    const std::string name = "pending feature " + std::to_string(feature.id);
+    if (feature.id < 0 || feature_offset.count(feature.id) > 0 ||
+        !pending.emplace(feature.id, feature.sightings).second) {
+      throw BadSnapshot(name + " has a negative id, is in the state or is there twice");
+    }
+    if (feature.sightings.empty()) throw BadSnapshot(name + " has no sighting");
+    for (const FeatureSighting& sighting : feature.sightings) {
+      if (pose_offset.count(sighting.frame_id) == 0) {
+        throw BadSnapshot(name + " is seen by frame " + std::to_string(sighting.frame_id) +
+                          ", which is no pose of the filter");
+      }
+      if (sighting.observation.feature_id != feature.id) {
+        throw BadSnapshot(name + " has a sighting of feature " +
+                          std::to_string(sighting.observation.feature_id));
+      }
+      const std::string problem = ObservationsProblem(sighting.frame_id, {sighting.observation});
+      if (!problem.empty()) throw BadSnapshot(problem);
+    }
+  }
+  return pending;
 }
 
 }  // namespace
@@ -136,6 +189,7 @@ FilterSnapshot InformationFilter::Snapshot() const {
   s.state = state_;
   for (int frame : frame_ids_) s.pose_offsets.emplace_back(frame, pose_offset_.at(frame));
   for (int64_t id : feature_ids_) s.feature_offsets.emplace_back(id, feature_offset_.at(id));
+  s.pending = PendingFeatures();
   return s;
 }
 
@@ -155,12 +209,15 @@ void InformationFilter::Restore(const FilterSnapshot& s) {
       throw BadSnapshot("feature " + std::to_string(id) + " is there twice");
     }
   }
-  // The feature holding each row of a pose's column.
-  std::vector<int> feature_at(s.dim, -1);
+  // The feature holding each row of a pose's column, and the pose each row of a feature's
+  // (a feature that entered on a later sighting couples with the poses that saw it before).
+  std::vector<int> feature_at(s.dim, -1), pose_at(s.dim, -1);
   for (const auto& [offset, variable] : variables) {
-    if (!variable.first)
-      std::fill(feature_at.begin() + offset, feature_at.begin() + offset + 3, offset);
+    std::vector<int>& at = variable.first ? pose_at : feature_at;
+    std::fill(at.begin() + offset, at.begin() + offset + (variable.first ? 6 : 3), offset);
   }
+  std::map<int64_t, std::vector<FeatureSighting>> pending =
+      CheckPending(s, pose_offset, feature_offset);
   // The matrix column by column; at each pose's last column the factor takes in the update
   // that pose made: its diagonal block, its couplings, and (all at once, as the new features
   // of that pose) the features' whole diagonal blocks, the sums the factor would have formed.
@@ -175,7 +232,7 @@ void InformationFilter::Restore(const FilterSnapshot& s) {
       matrix.StartColumn();
       for (int k = s.column_starts[c]; k < s.column_starts[c + 1]; ++k) {
         const int row = s.rows[k];
-        if (variable.first ? row < offset && feature_at[row] < 0 : row < offset) {
+        if (row < offset && (variable.first ? feature_at[row] : pose_at[row]) < 0) {
           throw BadSnapshot("column " + std::to_string(c) + " couples with row " +
                             std::to_string(row) + ", which a filter does not");
         }
@@ -183,7 +240,7 @@ void InformationFilter::Restore(const FilterSnapshot& s) {
       }
     }
     if (!variable.first) continue;
-    factor->AddDeferred(matrix, PoseUpdate(s, matrix, feature_at, offset, pose_end));
+    factor->AddDeferred(matrix, PoseUpdate(s, matrix, feature_at, pose_at, offset, pose_end));
     pose_end = offset + 6;
   }
   if (!factor->Refactor(matrix)) {
@@ -197,6 +254,7 @@ void InformationFilter::Restore(const FilterSnapshot& s) {
   feature_offset_ = std::move(feature_offset);
   for (const auto& frame_offset : s.pose_offsets) frame_ids_.push_back(frame_offset.first);
   for (const auto& id_offset : s.feature_offsets) feature_ids_.push_back(id_offset.first);
+  pending_ = std::move(pending);
   recovery_pending_ = false;
 }
 

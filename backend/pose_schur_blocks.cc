@@ -26,6 +26,11 @@ std::vector<int> PoseSchurBlocks::TouchedPoses(
     const std::vector<ObservationBlocks>& observations) const {
   std::vector<int> touched;
   for (const ObservationBlocks& obs : observations) {
+    for (const EarlierSightingBlocks& earlier : obs.earlier) {
+      const auto it = pose_of_offset_.find(earlier.pose_offset);
+      CHECK(it != pose_of_offset_.end()) << "no pose at offset " << earlier.pose_offset;
+      touched.push_back(it->second);
+    }
     if (obs.is_new) continue;
     const auto it = feature_of_offset_.find(obs.feature_offset);
     CHECK(it != feature_of_offset_.end()) << "no feature at offset " << obs.feature_offset;
@@ -57,8 +62,10 @@ PoseSchurBlocks::Change PoseSchurBlocks::ComputeChange(
     if (obs.is_new) {
       change.new_inverse[o] = SymmetricInverse(obs.I_ff);
       if (of_S) D.bottomRightCorner<6, 6>() -= G * change.new_inverse[o] * G.transpose();
+      if (of_S && !obs.earlier.empty()) AddEarlierToChange(obs, change.new_inverse[o], &change);
       continue;
     }
+    CHECK(obs.earlier.empty()) << "a known feature has no earlier sightings to add";
     const Feature& feature = features_[feature_of_offset_.at(obs.feature_offset)];
     const Eigen::Matrix3d F_inv_new = SymmetricInverse(feature.F + obs.I_ff);
     change.new_inverse[o] = F_inv_new;
@@ -84,6 +91,26 @@ PoseSchurBlocks::Change PoseSchurBlocks::ComputeChange(
   return change;
 }
 
+void PoseSchurBlocks::AddEarlierToChange(const ObservationBlocks& obs, const Eigen::Matrix3d& F_inv,
+                                         Change* change) const {
+  // The feature's couplings are the earlier poses' I_cf and the new pose's I_pf: S loses
+  // E^T F^-1 E over all of them, and the earlier poses' blocks gain their I_cc. Upper blocks
+  // only (ComputeChange mirrors D).
+  Eigen::MatrixXd& D = change->D;
+  const int t = static_cast<int>(change->touched.size());
+  for (const EarlierSightingBlocks& a : obs.earlier) {
+    const int la = change->local[pose_of_offset_.at(a.pose_offset)];
+    const Eigen::Matrix<double, 6, 3> EF = a.I_cf * F_inv;
+    D.block<6, 6>(6 * la, 6 * la) += a.I_cc;
+    for (const EarlierSightingBlocks& b : obs.earlier) {
+      const int lb = change->local[pose_of_offset_.at(b.pose_offset)];
+      if (lb < la) continue;
+      D.block<6, 6>(6 * la, 6 * lb).noalias() -= EF * b.I_cf.transpose();
+    }
+    D.block<6, 6>(6 * la, 6 * t).noalias() -= EF * obs.I_pf.transpose();
+  }
+}
+
 PoseSchurBlocks::Undo PoseSchurBlocks::AddPose(int pose_offset,
                                                const Eigen::Matrix<double, 6, 6>& I_pp,
                                                const std::vector<ObservationBlocks>& observations,
@@ -101,7 +128,9 @@ PoseSchurBlocks::Undo PoseSchurBlocks::AddPose(int pose_offset,
   for (size_t o = 0; o < observations.size(); ++o) {
     const int index = AddObservation(observations[o], change.new_inverse[o], update_S, &undo);
     feature_order.emplace_back(index, static_cast<int>(o));
+    undo.observations += static_cast<int64_t>(observations[o].earlier.size());
   }
+  AddEarlierSightings(observations, feature_order, update_S, &undo);
   std::sort(feature_order.begin(), feature_order.end());
   for (const auto& [index, o] : feature_order) {
     pose_couplings_.push_back(observations[o].I_pf);
@@ -111,7 +140,7 @@ PoseSchurBlocks::Undo PoseSchurBlocks::AddPose(int pose_offset,
   pose_offsets_.push_back(pose_offset);
   pose_of_offset_[pose_offset] = k;
   pose_blocks_.push_back(I_pp);
-  num_couplings_ += static_cast<int64_t>(observations.size());
+  num_couplings_ += undo.observations;
   return undo;
 }
 
@@ -151,6 +180,10 @@ int PoseSchurBlocks::AddObservation(const ObservationBlocks& obs,
   feature.F += obs.I_ff;
   feature.F_inv = new_inverse;
   feature.log_det = 2.0 * feature.F.llt().matrixLLT().diagonal().array().log().sum();
+  for (const EarlierSightingBlocks& earlier : obs.earlier) {  // in pose order, before this one
+    feature.poses.push_back(pose_of_offset_.at(earlier.pose_offset));
+    feature.couplings.push_back(earlier.I_cf);
+  }
   feature.poses.push_back(num_poses());
   feature.couplings.push_back(obs.I_pf);
   if (update_S) {
@@ -162,6 +195,71 @@ int PoseSchurBlocks::AddObservation(const ObservationBlocks& obs,
     unsynced_.push_back(index);
   }
   return index;
+}
+
+void PoseSchurBlocks::AddEarlierSightings(const std::vector<ObservationBlocks>& observations,
+                                          const std::vector<std::pair<int, int>>& feature_order,
+                                          bool update_S, Undo* undo) {
+  undo->old_pose_increments = unsynced_pose_increments_.size();
+  struct Late {
+    int pose, feature;
+    const Matrix63* coupling;
+  };
+  std::vector<Late> late;
+  for (const auto& [index, o] : feature_order) {
+    for (const EarlierSightingBlocks& earlier : observations[o].earlier) {
+      const int pose = pose_of_offset_.at(earlier.pose_offset);
+      const bool saved = std::any_of(undo->saved_pose_blocks.begin(), undo->saved_pose_blocks.end(),
+                                     [pose](const auto& p) { return p.first == pose; });
+      if (!saved) undo->saved_pose_blocks.emplace_back(pose, pose_blocks_[pose]);
+      pose_blocks_[pose] += earlier.I_cc;
+      // An S that has this pose's block and was not given the change takes it at Sync.
+      if (!update_S && pose < synced_poses_)
+        unsynced_pose_increments_.emplace_back(pose, earlier.I_cc);
+      late.push_back({pose, index, &earlier.I_cf});
+    }
+  }
+  if (late.empty()) return;
+  // Into the earlier poses' runs, after their couplings (the new features have the highest
+  // indices, so each run stays in feature order): one pass over all couplings.
+  std::stable_sort(late.begin(), late.end(), [](const Late& a, const Late& b) {
+    return a.pose != b.pose ? a.pose < b.pose : a.feature < b.feature;
+  });
+  std::vector<Matrix63, Eigen::aligned_allocator<Matrix63>> couplings;
+  std::vector<int> features, ends;
+  couplings.reserve(pose_couplings_.size() + late.size());
+  features.reserve(couplings.capacity());
+  size_t l = 0;
+  int e = 0;
+  for (int pose = 0; pose < num_poses(); ++pose) {
+    for (const int end = pose_coupling_ends_[pose]; e < end; ++e) {
+      couplings.push_back(pose_couplings_[e]);
+      features.push_back(pose_coupling_features_[e]);
+    }
+    for (; l < late.size() && late[l].pose == pose; ++l) {
+      couplings.push_back(*late[l].coupling);
+      features.push_back(late[l].feature);
+    }
+    ends.push_back(static_cast<int>(couplings.size()));
+  }
+  pose_couplings_.swap(couplings);
+  pose_coupling_features_.swap(features);
+  pose_coupling_ends_.swap(ends);
+  undo->earlier_couplings = true;
+}
+
+void PoseSchurBlocks::DropCouplingsOfFeatures(int first_feature, int end_pose) {
+  int kept = 0, e = 0;
+  for (int pose = 0; pose < end_pose; ++pose) {
+    for (const int end = pose_coupling_ends_[pose]; e < end; ++e) {
+      if (pose_coupling_features_[e] >= first_feature) continue;
+      pose_couplings_[kept] = pose_couplings_[e];
+      pose_coupling_features_[kept++] = pose_coupling_features_[e];
+    }
+    pose_coupling_ends_[pose] = kept;
+  }
+  pose_couplings_.resize(kept);
+  pose_coupling_features_.resize(kept);
 }
 
 void PoseSchurBlocks::Revert(const Undo& undo) {
@@ -182,6 +280,11 @@ void PoseSchurBlocks::Revert(const Undo& undo) {
   pose_coupling_features_.resize(old_couplings);
   pose_offsets_.pop_back();
   pose_blocks_.pop_back();
+  if (undo.earlier_couplings) DropCouplingsOfFeatures(undo.old_features, num_poses());
+  for (auto it = undo.saved_pose_blocks.rbegin(); it != undo.saved_pose_blocks.rend(); ++it) {
+    pose_blocks_[it->first] = it->second;
+  }
+  unsynced_pose_increments_.resize(undo.old_pose_increments);
   num_couplings_ -= undo.observations;
   pose_of_offset_.erase(undo.pose_offset);
   if (undo.updated_S) {
@@ -192,13 +295,17 @@ void PoseSchurBlocks::Revert(const Undo& undo) {
 
 void PoseSchurBlocks::Sync() {
   const int k = num_poses(), synced = synced_poses_;
-  if (synced == k && unsynced_.empty()) return;
+  if (synced == k && unsynced_.empty() && unsynced_pose_increments_.empty()) return;
   CHECK_GE(S_.rows(), 6 * k) << "no room in S for every pose";
   if (k > synced) {
     S_.block(6 * synced, 0, 6 * (k - synced), 6 * k).setZero();
     for (int pose = synced; pose < k; ++pose)
       S_.block<6, 6>(6 * pose, 6 * pose) = pose_blocks_[pose];
   }
+  for (const auto& [pose, increment] : unsynced_pose_increments_) {
+    S_.block<6, 6>(6 * pose, 6 * pose) += increment;
+  }
+  unsynced_pose_increments_.clear();
   // Pairs of poses that S has seen: F_synced^-1 - F^-1; pairs with a new pose: -F^-1.
   const int count = static_cast<int>(unsynced_.size());
   std::vector<Eigen::Matrix3d> M(count, Eigen::Matrix3d::Zero());

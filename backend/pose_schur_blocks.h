@@ -12,6 +12,10 @@
 //
 // Everything that reads the poses in a factor's order takes `position` (pose index -> its
 // place in the factor); poses are numbered in the order added.
+//
+// A feature that enters the state on a later sighting (ObservationBlocks::earlier) couples
+// with the earlier poses too, and adds to their blocks I_pp: for S that is the same kind of
+// change as a re-observed feature's, on the earlier poses and the new one.
 #pragma once
 
 #include <cstdint>
@@ -61,6 +65,10 @@ class PoseSchurBlocks {
     size_t old_unsynced = 0;
     int64_t observations = 0;
     std::vector<std::pair<int, FeatureValues>> saved;  // re-observed features as they were
+    // Earlier poses' blocks I_pp as they were, and the length of unsynced_pose_increments_.
+    std::vector<std::pair<int, Eigen::Matrix<double, 6, 6>>> saved_pose_blocks;
+    size_t old_pose_increments = 0;
+    bool earlier_couplings = false;  // couplings were inserted in earlier poses' runs
     bool updated_S = false;
     std::vector<int> scalar;  // S rows of the touched poses
     Eigen::MatrixXd S_saved;  // S on them before
@@ -133,6 +141,20 @@ class PoseSchurBlocks {
   // Adds `obs` to its feature (a new one for a new feature); returns the feature's index.
   int AddObservation(const ObservationBlocks& obs, const Eigen::Matrix3d& new_inverse,
                      bool update_S, Undo* undo);
+  // The new features' earlier sightings (`feature_order`: (feature index, observation) of
+  // every observation): their increments of the earlier poses' blocks I_pp (noted for Sync
+  // when S is not updated and has those poses already), and their couplings into the runs of
+  // `pose_couplings_` of those poses.
+  void AddEarlierSightings(const std::vector<ObservationBlocks>& observations,
+                           const std::vector<std::pair<int, int>>& feature_order, bool update_S,
+                           Undo* undo);
+  // The change of S a new feature's earlier sightings make (D's blocks of the touched poses
+  // and of the new pose, which is the last).
+  void AddEarlierToChange(const ObservationBlocks& obs, const Eigen::Matrix3d& F_inv,
+                          Change* change) const;
+  // Rebuilds the pose-by-pose couplings without those of features from `first_feature` on in
+  // the runs of the poses before `end_pose`.
+  void DropCouplingsOfFeatures(int first_feature, int end_pose);
   // S += D on the touched poses, and the new pose's row and column.
   void AddToS(const Change& change, Undo* undo);
 
@@ -152,9 +174,11 @@ class PoseSchurBlocks {
   // Pose index order, with room to grow; only the 6x6 blocks on and below the diagonal are
   // kept (Sync writes no others).
   Eigen::MatrixXd S_;
-  // S_ holds the poses before synced_poses_, and every feature but those in unsynced_.
+  // S_ holds the poses before synced_poses_, and every feature but those in unsynced_, and
+  // every increment of the poses' blocks but those in unsynced_pose_increments_.
   int synced_poses_ = 0;
   std::vector<int> unsynced_;
+  std::vector<std::pair<int, Eigen::Matrix<double, 6, 6>>> unsynced_pose_increments_;
 };
 
 }  // namespace ieslam

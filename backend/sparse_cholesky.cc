@@ -68,6 +68,32 @@ Eigen::Matrix3d SymmetricSquareRoot(const Eigen::Matrix3d& M) {
   return eigen.eigenvectors() * eigen.eigenvalues().cwiseMax(0.0).cwiseSqrt().asDiagonal();
 }
 
+// The same for a 6x6 M (a pose's increment, of rank 3 for one sighting: eigen-decomposed).
+Eigen::Matrix<double, 6, 6> SymmetricSquareRoot(const Eigen::Matrix<double, 6, 6>& M) {
+  const Eigen::LLT<Eigen::Matrix<double, 6, 6>> llt(M);
+  if (llt.info() == Eigen::Success) return llt.matrixL();
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>> eigen(M);
+  return eigen.eigenvectors() * eigen.eigenvalues().cwiseMax(0.0).cwiseSqrt().asDiagonal();
+}
+
+// Appends the columns of `root` (C C^T = the increment of the diagonal block at `first`) to
+// C, its rows at their factor positions, sorted.
+template <int N>
+void AppendRootColumns(const Eigen::Matrix<double, N, N>& root, int first,
+                       const std::vector<int>& position, int* column, int* Cp, int* Ci, double* Cx,
+                       int* nz) {
+  std::array<std::pair<int, int>, N> rows;  // (factor row, block row), sorted
+  for (int r = 0; r < N; ++r) rows[r] = {position[first + r], r};
+  std::sort(rows.begin(), rows.end());
+  for (int c = 0; c < N; ++c) {
+    Cp[(*column)++] = *nz;
+    for (const auto& [row, r] : rows) {
+      Ci[*nz] = row;
+      Cx[(*nz)++] = root(r, c);
+    }
+  }
+}
+
 // Y^T Y for the rows of Y listed in `rows` (others are zero), exactly symmetric.
 Eigen::MatrixXd GramOfRows(const Eigen::MatrixXd& Y_rows) {
   const int k = static_cast<int>(Y_rows.cols());
@@ -211,30 +237,28 @@ struct SparseCholesky::Impl {
   }
 
   // + C C^T on the factor, C = chol(increment) per block with its rows permuted: the
-  // re-observed features' blocks. False (the factor freed) if CHOLMOD fails.
-  bool AddIncrements(const std::vector<DiagonalIncrement>& increments) {
+  // re-observed features' blocks and the earlier poses'. False (the factor freed) if CHOLMOD
+  // fails.
+  bool AddIncrements(const std::vector<DiagonalIncrement>& increments,
+                     const std::vector<PoseIncrement>& pose_increments) {
     const int n = static_cast<int>(factor->n);
-    const int k = 3 * static_cast<int>(increments.size());
-    cholmod_sparse* C = cholmod_allocate_sparse(n, k, 9 * increments.size(), /*sorted=*/1,
-                                                /*packed=*/1, /*stype=*/0, CHOLMOD_REAL, &common);
+    const int k =
+        3 * static_cast<int>(increments.size()) + 6 * static_cast<int>(pose_increments.size());
+    cholmod_sparse* C =
+        cholmod_allocate_sparse(n, k, 9 * increments.size() + 36 * pose_increments.size(),
+                                /*sorted=*/1, /*packed=*/1, /*stype=*/0, CHOLMOD_REAL, &common);
     CHECK(C != nullptr);
     int* Cp = static_cast<int*>(C->p);
     int* Ci = static_cast<int*>(C->i);
     double* Cx = static_cast<double*>(C->x);
-    int nz = 0;
-    for (size_t b = 0; b < increments.size(); ++b) {
-      const DiagonalIncrement& increment = increments[b];
-      const Eigen::Matrix3d root = SymmetricSquareRoot(increment.block);
-      std::array<std::pair<int, int>, 3> rows;  // (factor row, block row), sorted
-      for (int r = 0; r < 3; ++r) rows[r] = {position[increment.first + r], r};
-      std::sort(rows.begin(), rows.end());
-      for (int c = 0; c < 3; ++c) {
-        Cp[3 * b + c] = nz;
-        for (const auto& [row, r] : rows) {
-          Ci[nz] = row;
-          Cx[nz++] = root(r, c);
-        }
-      }
+    int nz = 0, column = 0;
+    for (const DiagonalIncrement& increment : increments) {
+      AppendRootColumns<3>(SymmetricSquareRoot(increment.block), increment.first, position, &column,
+                           Cp, Ci, Cx, &nz);
+    }
+    for (const PoseIncrement& increment : pose_increments) {
+      AppendRootColumns<6>(SymmetricSquareRoot(increment.block), increment.first, position, &column,
+                           Cp, Ci, Cx, &nz);
     }
     Cp[k] = nz;
     const int ok = cholmod_updown(/*update=*/1, C, factor, &common);
@@ -353,18 +377,22 @@ bool SparseCholesky::valid() const { return impl_->numeric_ok; }
 
 int SparseCholesky::dim() const { return impl_->numeric_ok ? impl_->used : 0; }
 
-void SparseCholesky::NoteUpdate(int old_dim, const std::vector<DiagonalIncrement>& increments) {
-  if (increments.empty()) return;
+void SparseCholesky::NoteUpdate(int old_dim, const std::vector<DiagonalIncrement>& increments,
+                                const std::vector<PoseIncrement>& pose_increments) {
+  const size_t total = increments.size() + pose_increments.size();
+  if (total == 0) return;
   const int recent_start = old_dim - static_cast<int>(kExploringWindow * old_dim);
-  const auto count = std::count_if(increments.begin(), increments.end(),
-                                   [&](const auto& inc) { return inc.first >= recent_start; });
-  impl_->touched_recent = static_cast<double>(count) / static_cast<double>(increments.size());
+  const auto recent = [&](const auto& inc) { return inc.first >= recent_start; };
+  const auto count = std::count_if(increments.begin(), increments.end(), recent) +
+                     std::count_if(pose_increments.begin(), pose_increments.end(), recent);
+  impl_->touched_recent = static_cast<double>(count) / static_cast<double>(total);
 }
 
 bool SparseCholesky::Update(const UpperColumnStorage& matrix, int old_dim,
-                            const std::vector<DiagonalIncrement>& increments) {
+                            const std::vector<DiagonalIncrement>& increments,
+                            const std::vector<PoseIncrement>& pose_increments) {
   const int new_dim = matrix.dim();
-  NoteUpdate(old_dim, increments);
+  NoteUpdate(old_dim, increments, pose_increments);
   cholmod_factor* L = impl_->factor;
   if (!valid() || L->is_super || L->is_ll || impl_->used != old_dim ||
       new_dim > static_cast<int>(L->n)) {
@@ -373,7 +401,10 @@ bool SparseCholesky::Update(const UpperColumnStorage& matrix, int old_dim,
   const auto start = std::chrono::steady_clock::now();
   timings_.analyze_s = 0.0;
   timings_.reordered = false;
-  if (!increments.empty() && !impl_->AddIncrements(increments)) return false;
+  if ((!increments.empty() || !pose_increments.empty()) &&
+      !impl_->AddIncrements(increments, pose_increments)) {
+    return false;
+  }
   if (!impl_->AddRows(matrix, old_dim)) return false;
   impl_->used = new_dim;
   timings_.factorize_s = SecondsSince(start);

@@ -53,6 +53,13 @@ struct DiagonalIncrement {
   Eigen::Matrix3d block = Eigen::Matrix3d::Zero();
 };
 
+// A positive semidefinite 6x6 addition to the diagonal block of variables [first, first + 6):
+// a pose's, from the earlier sightings of features that enter the state on a later one.
+struct PoseIncrement {
+  int first = 0;
+  Eigen::Matrix<double, 6, 6> block = Eigen::Matrix<double, 6, 6>::Zero();
+};
+
 class SparseCholesky {
  public:
   // Throws ConfigError when the options fail Check. Not copyable: it owns the CHOLMOD state.
@@ -64,16 +71,19 @@ class SparseCholesky {
   // the matrix is not positive definite; the previous factor is then kept, unchanged.
   bool Factorize(const UpperColumnStorage& matrix, bool pattern_changed);
   // In-place update to `matrix`, which must be the last factored matrix plus `increments`
-  // on existing diagonal blocks and new columns [old_dim, matrix.dim()). False when there
-  // is no room (no spare slots left, no incremental factor) or the result is not positive
-  // definite; the factor is then invalid and the caller refactors.
+  // and `pose_increments` on existing diagonal blocks and new columns [old_dim, matrix.dim())
+  // (which may couple with any earlier variable). False when there is no room (no spare
+  // slots left, no incremental factor) or the result is not positive definite; the factor is
+  // then invalid and the caller refactors.
   bool Update(const UpperColumnStorage& matrix, int old_dim,
-              const std::vector<DiagonalIncrement>& increments);
+              const std::vector<DiagonalIncrement>& increments,
+              const std::vector<PoseIncrement>& pose_increments = {});
   // Notes which variables an update touches (Update() does it too): while updates touch
   // mostly the recently added variables (exploring), the next full factorisation keeps
   // those last in the order they were added; when they touch older ones (closing a loop),
   // the fill-reducing ordering covers everything.
-  void NoteUpdate(int old_dim, const std::vector<DiagonalIncrement>& increments);
+  void NoteUpdate(int old_dim, const std::vector<DiagonalIncrement>& increments,
+                  const std::vector<PoseIncrement>& pose_increments = {});
 
   bool valid() const;
   int dim() const;

@@ -1,6 +1,7 @@
 #include "backend/sparse_information_factor.h"
 
 #include <chrono>
+#include <map>
 #include <vector>
 
 #include <glog/logging.h>
@@ -21,6 +22,21 @@ std::vector<DiagonalIncrement> Increments(const InformationUpdate& update) {
   return increments;
 }
 
+// The earlier poses' diagonal blocks (features entering on a later sighting), one sum per
+// pose in offset order.
+std::vector<PoseIncrement> PoseIncrements(const InformationUpdate& update) {
+  std::map<int, Eigen::Matrix<double, 6, 6>> sums;
+  for (const ObservationBlocks& obs : update.observations) {
+    for (const EarlierSightingBlocks& earlier : obs.earlier) {
+      auto [it, added] = sums.try_emplace(earlier.pose_offset, earlier.I_cc);
+      if (!added) it->second += earlier.I_cc;
+    }
+  }
+  std::vector<PoseIncrement> increments;
+  for (const auto& [offset, block] : sums) increments.push_back({offset, block});
+  return increments;
+}
+
 class SparseInformationFactor final : public WrappedInformationFactor<SparseCholesky> {
  public:
   explicit SparseInformationFactor(const SparseCholeskyOptions& options)
@@ -31,7 +47,7 @@ class SparseInformationFactor final : public WrappedInformationFactor<SparseChol
                            const Eigen::VectorXd& /*guess*/, Eigen::VectorXd* state) override {
     // In place when the factor has room (the re-observed features' blocks are a low-rank
     // update, the new variables new rows), else a fresh ordering and factorisation.
-    if (!factor_.Update(matrix, update.old_dim, Increments(update)) &&
+    if (!factor_.Update(matrix, update.old_dim, Increments(update), PoseIncrements(update)) &&
         !factor_.Factorize(matrix, /*pattern_changed=*/true)) {
       return FactorStatus::kNotPositiveDefinite;
     }
@@ -43,7 +59,7 @@ class SparseInformationFactor final : public WrappedInformationFactor<SparseChol
   }
 
   void AddDeferred(const UpperColumnStorage& /*matrix*/, const InformationUpdate& update) override {
-    factor_.NoteUpdate(update.old_dim, Increments(update));
+    factor_.NoteUpdate(update.old_dim, Increments(update), PoseIncrements(update));
     timings_ = FactorTimings();
   }
 

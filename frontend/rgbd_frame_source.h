@@ -7,7 +7,10 @@
 // frame keypoint it is an inlier match of; when the frame enters the filter, its unmatched
 // lifted keypoints become new features (the strongest first, at most
 // max_new_features_per_frame of them, which bounds the state's growth). SIFT's keypoints at
-// one position with different orientations are one feature, observed once.
+// one position with different orientations are one feature, observed once. Ids are handed
+// out here whether or not the filter takes the feature into its state at once: with delayed
+// initialisation (InformationFilterOptions::min_sightings) it waits for a later frame's
+// match to the keypoint, which carries the same id.
 #pragma once
 
 #include <algorithm>

@@ -203,47 +203,65 @@ class Run {
     return false;
   }
 
-  // Scores a buffer: total gains and map terms, with the equal-dimension rule for new
-  // features, and equal measurements of known ones: every candidate is scored on its
-  // observations of the known features that all candidates of the buffer observe. Scored on
-  // all their observations, candidates nearer the base frames win by counting more matches
-  // (at 30 Hz the next frame always would); on the same features, the gain measures what the
-  // candidate's viewpoint adds. With too few features in common, each candidate's own known
-  // features are used, as in the paper.
+  // Whether the filter holds the feature, or would take it in with this sighting (a pending
+  // one seen often enough): a feature of the map, for the scoring.
+  bool OfTheMap(int64_t feature_id) const {
+    return filter_->HasFeature(feature_id) ||
+           (filter_->IsPending(feature_id) && filter_->Enters(feature_id));
+  }
+
+  // Scores a buffer: total gains and map terms, with the equal-dimension rule for the
+  // features that would enter the state (new ones; with delayed initialisation, the pending
+  // ones a candidate sees again, while the sightings that leave a feature pending add
+  // nothing), and equal measurements of the map's features (known ones, and pending ones
+  // a candidate would bring in): every candidate is scored on its observations of those
+  // that all candidates of the buffer observe. Scored on all their observations, candidates
+  // nearer the base frames win by counting more matches (at 30 Hz the next frame always
+  // would); on the same features, the gain measures what the candidate's viewpoint adds. With
+  // too few features in common, each candidate's own are used, as in the paper.
   void Score(const std::vector<CandidateFrame>& buffer, SelectionDecision* decision) {
     const auto start = Clock::now();
-    std::vector<std::vector<int64_t>> known(buffer.size());
-    int min_new = std::numeric_limits<int>::max();
+    std::vector<std::vector<int64_t>> seen(buffer.size());
     for (size_t k = 0; k < buffer.size(); ++k) {
       for (const FeatureObservation& obs : buffer[k].observations) {
-        if (filter_->HasFeature(obs.feature_id)) known[k].push_back(obs.feature_id);
+        if (OfTheMap(obs.feature_id)) seen[k].push_back(obs.feature_id);
       }
-      std::sort(known[k].begin(), known[k].end());
-      min_new = std::min(min_new, filter_->CountNewFeatures(buffer[k].observations));
+      std::sort(seen[k].begin(), seen[k].end());
     }
-    std::vector<int64_t> common = known[0];
+    std::vector<int64_t> common = seen[0];
     for (size_t k = 1; k < buffer.size(); ++k) {
       std::vector<int64_t> both;
-      std::set_intersection(common.begin(), common.end(), known[k].begin(), known[k].end(),
+      std::set_intersection(common.begin(), common.end(), seen[k].begin(), seen[k].end(),
                             std::back_inserter(both));
       common.swap(both);
     }
     const bool equal_measurements = static_cast<int>(common.size()) >= options_.min_common_features;
-    std::vector<int64_t> all_known;
-    for (const auto& ids : known) all_known.insert(all_known.end(), ids.begin(), ids.end());
-    std::sort(all_known.begin(), all_known.end());
-    all_known.erase(std::unique(all_known.begin(), all_known.end()), all_known.end());
-    const FeatureCovariance covariance =
-        filter_->JointFeatureCovariance(equal_measurements ? common : all_known);
-    for (const CandidateFrame& c : buffer) {
-      std::vector<FeatureObservation> scored;
-      for (const FeatureObservation& obs : c.observations) {
-        const bool is_known = filter_->HasFeature(obs.feature_id);
-        if (!is_known || !equal_measurements ||
+    std::vector<std::vector<FeatureObservation>> scored(buffer.size());
+    int min_new = std::numeric_limits<int>::max();
+    std::vector<int> earlier_frames;  // poses whose sightings the entering features join
+    for (size_t k = 0; k < buffer.size(); ++k) {
+      for (const FeatureObservation& obs : buffer[k].observations) {
+        if (!OfTheMap(obs.feature_id) || !equal_measurements ||
             std::binary_search(common.begin(), common.end(), obs.feature_id)) {
-          scored.push_back(obs);
+          scored[k].push_back(obs);
         }
       }
+      min_new = std::min(min_new, filter_->CountEnteringFeatures(scored[k]));
+      const std::vector<int> frames = filter_->EarlierSightingFrames(scored[k]);
+      earlier_frames.insert(earlier_frames.end(), frames.begin(), frames.end());
+    }
+    std::sort(earlier_frames.begin(), earlier_frames.end());
+    earlier_frames.erase(std::unique(earlier_frames.begin(), earlier_frames.end()),
+                         earlier_frames.end());
+    std::vector<int64_t> all_seen;
+    for (const auto& ids : seen) all_seen.insert(all_seen.end(), ids.begin(), ids.end());
+    std::sort(all_seen.begin(), all_seen.end());
+    all_seen.erase(std::unique(all_seen.begin(), all_seen.end()), all_seen.end());
+    // (Pending ids are skipped: the features' covariance is of the known ones.)
+    const FeatureCovariance covariance =
+        filter_->JointFeatureCovariance(equal_measurements ? common : all_seen, earlier_frames);
+    for (size_t k = 0; k < buffer.size(); ++k) {
+      const CandidateFrame& c = buffer[k];
       Vector6d T_w_c = InitialPose(c);
       if (filter_->options().gate_chi2 > 0.0) {
         // Scored on the observations that pass the single gates, with the stated Q: a
@@ -251,14 +269,14 @@ class Run {
         // slightly different common features. The joint test and the Q scaling are left to
         // the frame that enters (a per-candidate scale would reward a noisier frame).
         GatedObservations gated =
-            GateObservations(*filter_, T_w_c, scored, covariance, /*joint=*/false);
-        scored = std::move(gated.observations);
+            GateObservations(*filter_, T_w_c, scored[k], covariance, /*joint=*/false);
+        scored[k] = std::move(gated.observations);
         if (gated.pose_fitted) T_w_c = gated.T_w_c;
       }
       GainTerms terms;
       // -infinity when a feature lies behind the candidate's camera: the registration is
       // wrong, and the candidate not scorable.
-      const double gain = filter_->InformationGain(T_w_c, scored, min_new, covariance, &terms);
+      const double gain = filter_->InformationGain(T_w_c, scored[k], min_new, covariance, &terms);
       decision->candidates.push_back(c.frame);
       decision->gains.push_back(gain);
       decision->map_gains.push_back(std::isfinite(gain) ? terms.map : gain);

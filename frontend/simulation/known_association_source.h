@@ -1,6 +1,7 @@
 // A FrameSource for sequences whose data association is known (the paper's simulation):
-// observations already carry global feature ids. A candidate is registered to the base
-// frame it shares most features with, by a closed-form rigid fit (Eigen's Umeyama, no
+// observations already carry global feature ids (the filter decides when a feature enters its
+// state: at once, or with delayed initialisation at its second sighting). A candidate is registered
+// to the base frame it shares most features with, by a closed-form rigid fit (Eigen's Umeyama, no
 // scale) of the two frames' lifted observations of the shared features.
 #pragma once
 

@@ -115,6 +115,7 @@ void ContinuedDataset::AddBaseFrames(RgbdFrameSource* source) const {
   }
   int64_t next_id = 0;
   for (const MapFeature& f : map_.map.features) next_id = std::max(next_id, f.id + 1);
+  for (const PendingFeature& p : map_.map.filter.pending) next_id = std::max(next_id, p.id + 1);
   source->ReserveFeatureIdsBelow(next_id);
 }
 
@@ -125,6 +126,13 @@ PipelineResume ContinuedDataset::Resume() const {
   for (int k = 0; k < map_frames(); ++k) renumbered.emplace(map_.map.keyframes[k].frame, k);
   // The map's consistency check holds the filter's poses to the keyframes, one for one.
   for (auto& [frame, offset] : resume.filter.pose_offsets) frame = renumbered.at(frame);
+  // The pending features' sightings name keyframes too (the filter's Restore checks them).
+  for (PendingFeature& p : resume.filter.pending) {
+    for (FeatureSighting& sighting : p.sightings) {
+      const auto it = renumbered.find(sighting.frame_id);
+      if (it != renumbered.end()) sighting.frame_id = it->second;
+    }
+  }
   for (int k = 0; k < map_frames(); ++k) {
     resume.selection.selected.push_back(k);
     resume.selection.observations[k] = map_.map.keyframes[k].observations;

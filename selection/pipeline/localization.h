@@ -4,9 +4,9 @@
 // mutual matching, RANSAC) to the base frames the database ranks first and to the one that
 // placed the frame before it; the inlier matches of every base frame that registers are
 // pooled, each matched base keypoint standing for its map feature's position (or, for a
-// keypoint that is no feature or with the refined poses, for its lifted point at its
-// keyframe's pose), and one RANSAC over the pool gives the frame's pose in the map. Nothing
-// is added to the map.
+// keypoint that is no feature, a pending one included, or with the refined poses, for its
+// lifted point at its keyframe's pose), and one RANSAC over the pool gives the frame's pose in the
+// map. Nothing is added to the map.
 //
 // Tracking bridges views the map does not cover: the frame placed before is registered as
 // well and its matches join the pool after the map's (a keypoint matched in both stands for

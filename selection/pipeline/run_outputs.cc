@@ -19,7 +19,9 @@ namespace {
 
 // The information matrix's nonzero pattern at the level of state blocks, in state order: a
 // line `blocks <kinds>` (one letter per block, P = pose, F = feature) and one line `i j` per
-// nonzero off-diagonal block (i < j): the paper's Fig. 8.
+// nonzero off-diagonal block (i < j): the paper's Fig. 8. A feature couples with every pose
+// that saw it (with delayed initialisation, the one that saw it first too, which comes before
+// it in the state); pending features are not in it.
 void WriteInformationBlocks(const InformationFilter& filter, const std::string& path) {
   std::vector<std::pair<int, char>> starts;  // state blocks in state order
   for (int frame : filter.frame_ids()) {

@@ -218,6 +218,7 @@ Json RunReport(const Dataset& dataset, const RunOptions& options, const RunResul
       .Set("state_dim", p.filter->state_dim())
       .Set("poses", p.filter->num_poses())
       .Set("features", p.filter->num_features())
+      .Set("features_pending", p.filter->num_pending_features())
       .Set("interrupted", run.interrupted())
       .Set("frames_processed", run.frames_processed());
   if (!run.continued_map_file.empty()) {
@@ -230,12 +231,14 @@ Json RunReport(const Dataset& dataset, const RunOptions& options, const RunResul
   if (run.saved_map) {
     int64_t keypoints = 0;
     for (const MapBaseFrame& b : run.saved_map->base_frames) keypoints += b.features.size();
-    report.Set("saved_map", Json::Object()
-                                .Set("file", std::string(kMapDirectory) + "/" + kMapFileName)
-                                .Set("format_version", static_cast<int64_t>(kMapFormatVersion))
-                                .Set("poses", static_cast<int>(run.saved_map->keyframes.size()))
-                                .Set("features", static_cast<int>(run.saved_map->features.size()))
-                                .Set("keypoints", keypoints));
+    report.Set("saved_map",
+               Json::Object()
+                   .Set("file", std::string(kMapDirectory) + "/" + kMapFileName)
+                   .Set("format_version", static_cast<int64_t>(kMapFormatVersion))
+                   .Set("poses", static_cast<int>(run.saved_map->keyframes.size()))
+                   .Set("features", static_cast<int>(run.saved_map->features.size()))
+                   .Set("features_pending", static_cast<int>(run.saved_map->filter.pending.size()))
+                   .Set("keypoints", keypoints));
   }
   if (run.velocity_counts) report.Set("rolling_shutter", RollingShutterToJson(dataset, run));
   const GateStatistics& gate = p.selection.gate;

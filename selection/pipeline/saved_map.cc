@@ -149,6 +149,16 @@ void WriteFilter(const MapFilterState& f, SectionSink* sink) {
     w.I64(id);
     w.I32(offset);
   }
+  w.U64(f.pending.size());
+  for (const PendingFeature& p : f.pending) {
+    w.I64(p.id);
+    w.U64(p.sightings.size());
+    for (const FeatureSighting& sighting : p.sightings) {
+      w.I32(sighting.frame_id);
+      WriteMatrix(sighting.observation.z, &w);
+      WriteMatrix(sighting.observation.Q, &w);
+    }
+  }
   flush(true);
 }
 
@@ -251,6 +261,17 @@ void ReadFilter(SectionReader* r, MapFilterState* f) {
     id = r->I64();
     offset = r->I32();
   }
+  f->pending.resize(r->Count(8 + 8));
+  for (PendingFeature& p : f->pending) {
+    p.id = r->I64();
+    p.sightings.resize(r->Count(4 + 12 * 8));
+    for (FeatureSighting& sighting : p.sightings) {
+      sighting.frame_id = r->I32();
+      sighting.observation.feature_id = p.id;
+      ReadMatrix(r, &sighting.observation.z);
+      ReadMatrix(r, &sighting.observation.Q);
+    }
+  }
 }
 
 // Throws DataError `where`: why, when the map's parts do not hold together.
@@ -306,6 +327,22 @@ void CheckConsistent(const SavedMap& map, const std::string& where) {
   }
   if (std::find(covered.begin(), covered.end(), 0) != covered.end()) {
     fail("part of the state belongs to no pose or feature");
+  }
+  // Pending features (seen by too few keyframes to be in the state) are the map's too: the
+  // keyframes' observations and the base frames may name them. The filter's Restore checks
+  // the rest of them.
+  std::unordered_set<int> frames;
+  for (const auto& [frame, offset] : f.pose_offsets) frames.insert(frame);
+  for (const PendingFeature& p : f.pending) {
+    if (p.id < 0 || !ids.insert(p.id).second) {
+      fail("pending feature " + std::to_string(p.id) + " has a negative id or is listed twice");
+    }
+    for (const FeatureSighting& sighting : p.sightings) {
+      if (frames.count(sighting.frame_id) == 0) {
+        fail("pending feature " + std::to_string(p.id) + " is seen by frame " +
+             std::to_string(sighting.frame_id) + ", which is no keyframe");
+      }
+    }
   }
   for (const MapKeyframe& k : map.keyframes) {
     for (const FeatureObservation& o : k.observations) {
@@ -373,9 +410,10 @@ SavedMap MakeSavedMap(const InformationFilter& filter, const SlamEstimate& estim
     }
   }
 
+  // Pending features keep their ids: a later session that sees them again brings them in.
   for (MapBaseFrame& b : base_frames) {
     for (int64_t& id : b.feature_ids) {
-      if (id >= 0 && !filter.HasFeature(id)) id = -1;
+      if (id >= 0 && !filter.HasFeature(id) && !filter.IsPending(id)) id = -1;
     }
   }
   map.base_frames = std::move(base_frames);

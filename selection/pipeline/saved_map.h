@@ -6,7 +6,8 @@
 // covariances and, after a refinement, the refined ones, and the observations each entered
 // the filter with), the features with their marginal covariances, the filter's information
 // matrix, vector and state exactly as they stand (so that mapping resumes from the same
-// estimate), and the calibration and options it was made with.
+// estimate, its pending features' sightings included), and the calibration and options it
+// was made with.
 //
 // On disk: OUT/map/map.bin, a section file (core/section_file.h) with magic "IESLAMAP",
 // format version kMapFormatVersion, and the sections META, KFRM, FEAT, BASE and FILT in that
@@ -33,7 +34,7 @@
 
 namespace ieslam {
 
-inline constexpr uint32_t kMapFormatVersion = 3;
+inline constexpr uint32_t kMapFormatVersion = 4;
 inline constexpr char kMapDirectory[] = "map";
 inline constexpr char kMapFileName[] = "map.bin";
 
@@ -98,9 +99,9 @@ struct SavedMap {
 // estimate (FilterEstimate: the pose covariances are taken from it where it has them),
 // `base_frames` the keyframes' processed frames (one per filter pose, in the filter's order),
 // `observations` the observations each filter pose entered with (SelectionResult's);
-// `refinement` the refined estimate or nullptr. Feature ids of base-frame rows that are not in
-// the filter become -1. The features' marginal covariances come from the filter's factor, a
-// few hundred features per recovery.
+// `refinement` the refined estimate or nullptr. Feature ids of base-frame rows that the
+// filter does not know (neither in its state nor pending) become -1. The features' marginal
+// covariances come from the filter's factor, a few hundred features per recovery.
 SavedMap MakeSavedMap(const InformationFilter& filter, const SlamEstimate& estimate,
                       std::vector<MapBaseFrame> base_frames,
                       const std::map<int, std::vector<FeatureObservation>>& observations,

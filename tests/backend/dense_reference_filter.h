@@ -2,11 +2,16 @@
 // the paper's eqs. 9-10 written as plainly as possible, with full Jacobian rows H over the
 // whole state and dense Eigen algebra. Its variable order (each pose, then its new
 // features) differs from the sparse filter's on purpose; compare through the ids.
+//
+// With min_sightings 2 (delayed initialisation) a feature's first sighting waits aside; at
+// its second the feature is initialised from the first (back-projected from that pose's
+// estimate) and both sightings are added as rows linearised at X(k), as any other.
 #pragma once
 
 #include <cmath>
 #include <cstdint>
 #include <map>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Cholesky>
@@ -22,8 +27,9 @@ namespace testing {
 
 class DenseReferenceFilter {
  public:
-  DenseReferenceFilter(double anchor_information, const PinholeCamera& camera)
-      : anchor_(anchor_information), camera_(camera) {}
+  DenseReferenceFilter(double anchor_information, const PinholeCamera& camera,
+                       int min_sightings = 1)
+      : anchor_(anchor_information), camera_(camera), min_sightings_(min_sightings) {}
   DenseReferenceFilter(const DenseReferenceFilter&) = delete;
   DenseReferenceFilter& operator=(const DenseReferenceFilter&) = delete;
 
@@ -39,6 +45,7 @@ class DenseReferenceFilter {
   Vector6d pose(int frame_id) const { return X_.segment<6>(poses_.at(frame_id)); }
   Eigen::Vector3d feature(int64_t id) const { return X_.segment<3>(features_.at(id)); }
   bool HasFeature(int64_t id) const { return features_.count(id) > 0; }
+  int num_pending() const { return static_cast<int>(pending_.size()); }
   int state_dim() const { return static_cast<int>(X_.size()); }
   const Eigen::MatrixXd& information() const { return I_; }
   int PoseIndex(int frame_id) const { return poses_.at(frame_id); }
@@ -57,7 +64,8 @@ class DenseReferenceFilter {
   }
 
   // The paper's gain: log det of the explicitly expanded matrix, the candidate's first
-  // `num_new` new features counted.
+  // `num_new` entering features counted (with their earlier sightings); sightings that leave
+  // a feature pending add nothing.
   double LogDetExpanded(const Vector6d& T_w_c, const std::vector<FeatureObservation>& observations,
                         int num_new) const {
     Eigen::MatrixXd I = I_;
@@ -67,9 +75,14 @@ class DenseReferenceFilter {
     int counted = 0;
     for (const FeatureObservation& obs : observations) {
       if (features.count(obs.feature_id) == 0) {
-        if (counted == num_new) continue;
+        if (!Enters(obs.feature_id) || counted == num_new) continue;
         ++counted;
-        features[obs.feature_id] = Grow(&I, &X, ObservationToWorld(T_w_c, obs.z, camera_));
+        features[obs.feature_id] = Grow(&I, &X, InitialPoint(X, T_w_c, obs));
+        for (const auto& [frame, earlier] : Sightings(obs.feature_id)) {
+          Eigen::MatrixXd H;
+          Row(X, poses_.at(frame), features.at(obs.feature_id), &H);
+          I += H.transpose() * earlier.Q.inverse() * H;
+        }
       }
       Eigen::MatrixXd H;
       Row(X, pose_index, features.at(obs.feature_id), &H);
@@ -109,8 +122,29 @@ class DenseReferenceFilter {
     return h;
   }
 
+  using Sighting = std::pair<int, FeatureObservation>;  // (frame, observation)
+
+  bool Enters(int64_t id) const {
+    const auto it = pending_.find(id);
+    return (it == pending_.end() ? 0 : static_cast<int>(it->second.size())) + 1 >= min_sightings_;
+  }
+  std::vector<Sighting> Sightings(int64_t id) const {
+    const auto it = pending_.find(id);
+    return it == pending_.end() ? std::vector<Sighting>() : it->second;
+  }
+  // An entering feature's initial value: its first sighting back-projected from that pose's
+  // estimate in X, or from T_w_c when this is its first.
+  Eigen::Vector3d InitialPoint(const Eigen::VectorXd& X, const Vector6d& T_w_c,
+                               const FeatureObservation& obs) const {
+    const std::vector<Sighting> earlier = Sightings(obs.feature_id);
+    if (earlier.empty()) return ObservationToWorld(T_w_c, obs.z, camera_);
+    return ObservationToWorld(X.segment<6>(poses_.at(earlier.front().first)),
+                              earlier.front().second.z, camera_);
+  }
+
   void Add(int frame_id, const Vector6d& T_w_c, const std::vector<FeatureObservation>& observations,
            bool anchor) {
+    const Eigen::VectorXd X_before = X_;
     const int pose_index = Grow(&I_, &X_, T_w_c);
     i_.conservativeResize(X_.size());
     i_.tail<6>().setZero();
@@ -119,18 +153,32 @@ class DenseReferenceFilter {
       I_.block<6, 6>(pose_index, pose_index) += anchor_ * Matrix6d::Identity();
       i_.tail<6>() += anchor_ * T_w_c;
     }
+    // (pose index, observation): the rows of this update.
+    std::vector<std::pair<int, FeatureObservation>> rows;
+    std::vector<FeatureObservation> deferred;
     for (const FeatureObservation& obs : observations) {
       if (!HasFeature(obs.feature_id)) {
-        features_[obs.feature_id] = Grow(&I_, &X_, ObservationToWorld(T_w_c, obs.z, camera_));
+        if (!Enters(obs.feature_id)) {
+          deferred.push_back(obs);
+          continue;
+        }
+        features_[obs.feature_id] = Grow(&I_, &X_, InitialPoint(X_before, T_w_c, obs));
         i_.conservativeResize(X_.size());
         i_.tail<3>().setZero();
+        for (const auto& [frame, earlier] : Sightings(obs.feature_id)) {
+          rows.emplace_back(poses_.at(frame), earlier);
+        }
+        pending_.erase(obs.feature_id);
       }
+      rows.emplace_back(pose_index, obs);
     }
+    for (const FeatureObservation& obs : deferred)
+      pending_[obs.feature_id].emplace_back(frame_id, obs);
     // Eq. 9 at X(k): every observation linearised at the estimate before this update.
     const Eigen::VectorXd X_k = X_;
-    for (const FeatureObservation& obs : observations) {
+    for (const auto& [pose, obs] : rows) {
       Eigen::MatrixXd H;
-      const Eigen::Vector3d h = Row(X_k, pose_index, features_.at(obs.feature_id), &H);
+      const Eigen::Vector3d h = Row(X_k, pose, features_.at(obs.feature_id), &H);
       const Eigen::Matrix3d W = obs.Q.inverse();
       I_ += H.transpose() * W * H;
       i_ += H.transpose() * W * (obs.z - h + H * X_k);
@@ -140,6 +188,8 @@ class DenseReferenceFilter {
 
   double anchor_;
   PinholeCamera camera_;
+  int min_sightings_ = 1;
+  std::map<int64_t, std::vector<Sighting>> pending_;
   Eigen::MatrixXd I_;
   Eigen::VectorXd i_;
   Eigen::VectorXd X_;

@@ -71,4 +71,29 @@ inline std::vector<FeatureObservation> Observe(const Scene& scene, int i, bool n
   return observations;
 }
 
+// `pose` moved by Gaussian noise of `metres` and `radians` per component.
+inline Vector6d Perturb(const Vector6d& pose, double metres, double radians, std::mt19937* rng) {
+  std::normal_distribution<double> normal(0.0, 1.0);
+  Vector6d perturbed = pose;
+  for (int k = 0; k < 3; ++k) perturbed[k] += metres * normal(*rng);
+  for (int k = 3; k < 6; ++k) perturbed[k] += radians * normal(*rng);
+  return perturbed;
+}
+
+// Runs the same noisy sequence of the scene's first `num_poses` poses through two filters
+// (the sparse one and the dense reference, or two sparse ones), each pose from a perturbed
+// initial value.
+template <typename FilterA, typename FilterB>
+void RunBoth(const Scene& scene, int num_poses, std::mt19937* rng, FilterA* a, FilterB* b) {
+  const std::vector<FeatureObservation> first = Observe(scene, 0, true, rng);
+  a->AddFirstPose(scene.frame_ids[0], scene.poses[0], first);
+  b->AddFirstPose(scene.frame_ids[0], scene.poses[0], first);
+  for (int i = 1; i < num_poses; ++i) {
+    const std::vector<FeatureObservation> observations = Observe(scene, i, true, rng);
+    const Vector6d initial = Perturb(scene.poses[i], 0.02, 0.01, rng);
+    a->AddPose(scene.frame_ids[i], initial, observations);
+    b->AddPose(scene.frame_ids[i], initial, observations);
+  }
+}
+
 }  // namespace ieslam

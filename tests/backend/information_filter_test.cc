@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <memory>
 #include <random>
 #include <string>
@@ -21,14 +22,6 @@ namespace {
 void AddFirstTwoPoses(const Scene& scene, std::mt19937* rng, InformationFilter* filter) {
   filter->AddFirstPose(scene.frame_ids[0], scene.poses[0], Observe(scene, 0, false, rng));
   filter->AddPose(scene.frame_ids[1], scene.poses[1], Observe(scene, 1, false, rng));
-}
-
-Vector6d Perturb(const Vector6d& pose, double metres, double radians, std::mt19937* rng) {
-  std::normal_distribution<double> normal(0.0, 1.0);
-  Vector6d perturbed = pose;
-  for (int k = 0; k < 3; ++k) perturbed[k] += metres * normal(*rng);
-  for (int k = 3; k < 6; ++k) perturbed[k] += radians * normal(*rng);
-  return perturbed;
 }
 
 // Every test runs on both factorisations: the sparse one (max_dense_pose_dim 0) and the
@@ -194,20 +187,6 @@ TEST_P(InformationFilterTest, InformationMatrixCouplesPosesOnlyThroughFeatures) 
   EXPECT_EQ(I.block(row, col, 3, 3).norm(), 0.0);
 }
 
-// Runs the same noisy sequence through the sparse filter and the dense reference.
-void RunBoth(const Scene& scene, int num_poses, std::mt19937* rng, InformationFilter* sparse,
-             testing::DenseReferenceFilter* dense) {
-  const std::vector<FeatureObservation> first = Observe(scene, 0, true, rng);
-  sparse->AddFirstPose(scene.frame_ids[0], scene.poses[0], first);
-  dense->AddFirstPose(scene.frame_ids[0], scene.poses[0], first);
-  for (int i = 1; i < num_poses; ++i) {
-    const std::vector<FeatureObservation> observations = Observe(scene, i, true, rng);
-    const Vector6d initial = Perturb(scene.poses[i], 0.02, 0.01, rng);
-    sparse->AddPose(scene.frame_ids[i], initial, observations);
-    dense->AddPose(scene.frame_ids[i], initial, observations);
-  }
-}
-
 double RelativeDifference(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
   return (a - b).norm() / b.norm();
 }
@@ -257,6 +236,115 @@ TEST_P(InformationFilterTest, AgreesWithTheDenseReferenceFilter) {
   }
 }
 
+// Delayed initialisation (min_sightings 2): a feature's first sighting waits aside and the
+// feature enters at its second with both, coupling the earlier pose with it. The filter is
+// the dense reference given the same observations: poses, features, covariances, log det;
+// the state holds the features seen twice, no others.
+TEST_P(InformationFilterTest, DelayedInitialisationAgreesWithTheDenseReference) {
+  for (const unsigned seed : {6u, 7u, 8u}) {
+    std::mt19937 rng(seed);
+    const int num_poses = 5 + static_cast<int>(seed % 3) * 2;
+    const Scene scene = MakeScene(num_poses, 40 + 10 * static_cast<int>(seed % 3), &rng);
+    InformationFilterOptions options = DefaultOptions();
+    options.min_sightings = 2;
+    InformationFilter sparse(options, scene.camera);
+    testing::DenseReferenceFilter dense(options.anchor_information, scene.camera, 2);
+    RunBoth(scene, num_poses, &rng, &sparse, &dense);
+    ASSERT_EQ(sparse.state_dim(), dense.state_dim());
+    ASSERT_EQ(sparse.num_pending_features(), dense.num_pending());
+    ASSERT_GT(sparse.num_pending_features(), 0);
+    for (int id : sparse.frame_ids()) {
+      EXPECT_LT((sparse.pose(id) - dense.pose(id)).norm(), 1e-9) << "frame " << id;
+    }
+    for (int64_t id : sparse.feature_ids()) {
+      EXPECT_LT((sparse.feature(id) - dense.feature(id)).norm(), 1e-9) << "feature " << id;
+      EXPECT_FALSE(sparse.IsPending(id));
+    }
+    for (const PendingFeature& pending : sparse.PendingFeatures()) {
+      EXPECT_FALSE(dense.HasFeature(pending.id));
+      EXPECT_EQ(pending.sightings.size(), 1u);
+    }
+    EXPECT_NEAR(sparse.LogDetInformation(), dense.LogDetInformation(),
+                1e-9 * std::abs(dense.LogDetInformation()));
+    // The first pose with a feature that entered at its second sighting, jointly.
+    ExpectJointMarginalMatchesDense(sparse, dense, sparse.frame_ids().front(),
+                                    sparse.feature_ids().front());
+    ExpectJointMarginalMatchesDense(sparse, dense, sparse.frame_ids().back(),
+                                    sparse.feature_ids()[sparse.feature_ids().size() / 2]);
+  }
+}
+
+// On noise-free observations at the true poses both filters recover the scene; delayed, the
+// state is smaller by the features only one pose saw, which wait aside with that sighting.
+TEST_P(InformationFilterTest, DelayedInitialisationLeavesSingleSightedFeaturesOut) {
+  std::mt19937 rng(22);
+  const int num_poses = 6;
+  const Scene scene = MakeScene(num_poses, 80, &rng);
+  InformationFilterOptions delayed_options = DefaultOptions();
+  delayed_options.min_sightings = 2;
+  InformationFilter at_once(DefaultOptions(), scene.camera), delayed(delayed_options, scene.camera);
+  std::map<int64_t, int> sightings;
+  for (int i = 0; i < num_poses; ++i) {
+    const std::vector<FeatureObservation> observations = Observe(scene, i, false, &rng);
+    for (const FeatureObservation& obs : observations) ++sightings[obs.feature_id];
+    for (InformationFilter* filter : {&at_once, &delayed}) {
+      if (i == 0) {
+        filter->AddFirstPose(scene.frame_ids[0], scene.poses[0], observations);
+      } else {
+        filter->AddPose(scene.frame_ids[i], scene.poses[i], observations);
+      }
+    }
+  }
+  int single = 0;
+  for (const auto& [id, count] : sightings) {
+    EXPECT_EQ(delayed.IsPending(id), count == 1) << "feature " << id;
+    EXPECT_EQ(delayed.HasFeature(id), count > 1) << "feature " << id;
+    single += count == 1 ? 1 : 0;
+  }
+  ASSERT_GT(single, 5);
+  EXPECT_EQ(delayed.num_pending_features(), single);
+  EXPECT_EQ(delayed.num_features(), at_once.num_features() - single);
+  EXPECT_EQ(delayed.state_dim(), at_once.state_dim() - 3 * single);
+  for (int i = 0; i < num_poses; ++i) {
+    EXPECT_LT((delayed.pose(scene.frame_ids[i]) - scene.poses[i]).norm(), 1e-6) << "pose " << i;
+  }
+  for (int64_t id : delayed.feature_ids()) {
+    EXPECT_LT((delayed.feature(id) - at_once.feature(id)).norm(), 1e-6) << "feature " << id;
+  }
+}
+
+// A pose must be tied to the map by features in the state or entering with it; the pending
+// ones it would only see again tie it as well. Refused, it leaves the pending features as
+// they were.
+TEST_P(InformationFilterTest, DelayedPoseNeedsFeaturesThatTieIt) {
+  std::mt19937 rng(23);
+  const Scene scene = MakeScene(3, 60, &rng);
+  InformationFilterOptions options = DefaultOptions();
+  options.min_sightings = 2;
+  InformationFilter filter(options, scene.camera);
+  filter.AddFirstPose(scene.frame_ids[0], scene.poses[0], Observe(scene, 0, false, &rng));
+  EXPECT_EQ(filter.state_dim(), 6);
+  const int pending = filter.num_pending_features();
+  ASSERT_GT(pending, 10);
+  // Two of the first pose's features and the new ones: too few to tie the pose.
+  std::vector<FeatureObservation> observations;
+  int tying = 0;
+  for (const FeatureObservation& obs : Observe(scene, 1, false, &rng)) {
+    const bool ties = filter.IsPending(obs.feature_id);
+    if (ties && tying == 2) continue;
+    tying += ties ? 1 : 0;
+    observations.push_back(obs);
+  }
+  ASSERT_EQ(tying, 2);
+  EXPECT_THROW(filter.AddPose(scene.frame_ids[1], scene.poses[1], observations), DataError);
+  EXPECT_EQ(filter.num_pending_features(), pending);
+  EXPECT_EQ(filter.state_dim(), 6);
+  // All of them tie it.
+  filter.AddPose(scene.frame_ids[1], scene.poses[1], Observe(scene, 1, false, &rng));
+  EXPECT_LT((filter.pose(scene.frame_ids[1]) - scene.poses[1]).norm(), 1e-6);
+  EXPECT_GT(filter.num_features(), 10);
+}
+
 // Past max_dense_pose_dim the sparse factor takes over in the middle of a run; the filter
 // stays the dense one.
 TEST_P(InformationFilterTest, SwitchingFactorisationMidwayChangesNothing) {
@@ -281,96 +369,6 @@ TEST_P(InformationFilterTest, SwitchingFactorisationMidwayChangesNothing) {
   }
   EXPECT_NEAR(filter.LogDetInformation(), dense.LogDetInformation(),
               1e-9 * std::abs(dense.LogDetInformation()));
-}
-
-// Candidates: the next poses of the scene, seen from perturbed registrations.
-TEST_P(InformationFilterTest, FastGainEqualsLogDetOfTheExpandedMatrix) {
-  for (const unsigned seed : {9u, 10u, 11u, 12u}) {
-    std::mt19937 rng(seed);
-    const int num_poses = 9;
-    const Scene scene = MakeScene(num_poses, 100, &rng);
-    InformationFilter sparse(DefaultOptions(), scene.camera);
-    testing::DenseReferenceFilter dense(DefaultOptions().anchor_information, scene.camera);
-    RunBoth(scene, 5, &rng, &sparse, &dense);
-
-    std::vector<Vector6d> candidates;
-    std::vector<std::vector<FeatureObservation>> observations;
-    int min_new = std::numeric_limits<int>::max();
-    std::vector<int64_t> union_ids;
-    for (int i = 5; i < num_poses; ++i) {
-      candidates.push_back(Perturb(scene.poses[i], 0.02, 0.01, &rng));
-      observations.push_back(Observe(scene, i, true, &rng));
-      min_new = std::min(min_new, sparse.CountNewFeatures(observations.back()));
-      for (const FeatureObservation& obs : observations.back()) union_ids.push_back(obs.feature_id);
-    }
-    ASSERT_GT(min_new, 0);
-    int max_new = 0;
-    for (const auto& obs : observations) max_new = std::max(max_new, sparse.CountNewFeatures(obs));
-    ASSERT_GT(max_new, min_new) << "the equal-dimension rule must drop some features";
-    const FeatureCovariance known = sparse.JointFeatureCovariance(union_ids);
-    const double log_det = sparse.LogDetInformation();
-    for (size_t c = 0; c < candidates.size(); ++c) {
-      for (const int count : {min_new, 0, -1}) {
-        const double fast = sparse.InformationGain(candidates[c], observations[c], count, known);
-        const double expanded =
-            sparse.LogDetExpandedInformation(candidates[c], observations[c], count) - log_det;
-        const int dense_count = count < 0 ? sparse.CountNewFeatures(observations[c]) : count;
-        const double paper = dense.LogDetExpanded(candidates[c], observations[c], dense_count) -
-                             dense.LogDetInformation();
-        EXPECT_NEAR(fast, expanded, 1e-6 * std::abs(expanded)) << "candidate " << c;
-        EXPECT_NEAR(fast, paper, 1e-9 * std::abs(paper)) << "candidate " << c;
-        EXPECT_GT(fast, 0.0);
-      }
-    }
-  }
-}
-
-TEST_P(InformationFilterTest, GainIsMinusInfinityWhenThePoseIsUndetermined) {
-  std::mt19937 rng(13);
-  const Scene scene = MakeScene(3, 50, &rng);
-  InformationFilter filter(DefaultOptions(), scene.camera);
-  filter.AddFirstPose(scene.frame_ids[0], scene.poses[0], Observe(scene, 0, false, &rng));
-  std::vector<FeatureObservation> one_known;
-  for (const FeatureObservation& obs : Observe(scene, 1, false, &rng)) {
-    if (filter.HasFeature(obs.feature_id)) {
-      one_known.push_back(obs);
-      break;
-    }
-  }
-  ASSERT_EQ(one_known.size(), 1u);
-  const FeatureCovariance known = filter.JointFeatureCovariance({one_known[0].feature_id});
-  EXPECT_EQ(filter.InformationGain(scene.poses[1], one_known, 0, known),
-            -std::numeric_limits<double>::infinity());
-}
-
-// A candidate whose registration puts a known feature behind its camera, or whose
-// observations are malformed, cannot be linearised: -infinity, not an exception.
-TEST_P(InformationFilterTest, GainIsMinusInfinityWhenTheObservationsCannotBeLinearised) {
-  std::mt19937 rng(19);
-  const Scene scene = MakeScene(4, 60, &rng);
-  InformationFilter filter(DefaultOptions(), scene.camera);
-  AddFirstTwoPoses(scene, &rng, &filter);
-  const std::vector<FeatureObservation> observations = Observe(scene, 2, false, &rng);
-  std::vector<int64_t> ids;
-  for (const FeatureObservation& obs : observations) ids.push_back(obs.feature_id);
-  const FeatureCovariance known = filter.JointFeatureCovariance(ids);
-  const int new_features = filter.CountNewFeatures(observations);
-  GainTerms terms;
-  ASSERT_TRUE(std::isfinite(
-      filter.InformationGain(scene.poses[2], observations, new_features, known, &terms)));
-  // Turned about its y axis by pi: every feature lies behind the camera.
-  Vector6d turned = scene.poses[2];
-  turned[4] += M_PI;
-  GainTerms untouched = terms;
-  EXPECT_EQ(filter.InformationGain(turned, observations, new_features, known, &untouched),
-            -std::numeric_limits<double>::infinity());
-  EXPECT_EQ(untouched.total(), terms.total());
-  std::vector<FeatureObservation> doubled = observations;
-  doubled.push_back(doubled.front());
-  EXPECT_EQ(filter.InformationGain(scene.poses[2], doubled, new_features, known),
-            -std::numeric_limits<double>::infinity());
-  // Adding such a frame is refused, naming it.
-  EXPECT_THROW(filter.AddPose(99, turned, observations), DataError);
 }
 
 TEST_P(InformationFilterTest, OptionsCheckRejectsANegativeSpareCapacity) {
@@ -435,8 +433,18 @@ TEST_P(InformationFilterTest, InPlaceUpdatesAndOrderingDoNotChangeTheResult) {
 // refactoring at every update, and the state, log det and covariances with the dense filter.
 // With cg_tolerance at double precision's floor (1e-10) to 1e-9 absolute; with the default,
 // the error's Mahalanobis norm (under the dense information matrix) stays below the
-// tolerance, i.e. each component within that many of its standard deviations.
-TEST(InformationFilterLazyTest, AgreesWithRefactoringEveryUpdateThroughALoopClosure) {
+// tolerance, i.e. each component within that many of its standard deviations. With features
+// entering at their first sighting, and delayed to their second (which changes the earlier
+// poses' blocks of S, and the couplings CG streams, as well).
+class InformationFilterLazyTest : public ::testing::TestWithParam<int> {};
+
+INSTANTIATE_TEST_SUITE_P(Sightings, InformationFilterLazyTest, ::testing::Values(1, 2),
+                         [](const ::testing::TestParamInfo<int>& info) {
+                           return info.param == 1 ? std::string("AtFirstSighting")
+                                                  : std::string("Delayed");
+                         });
+
+TEST_P(InformationFilterLazyTest, AgreesWithRefactoringEveryUpdateThroughALoopClosure) {
   std::mt19937 rng(31);
   Scene scene = MakeScene(12, 90, &rng);
   for (int i = 11; i >= 0; --i) {
@@ -449,13 +457,15 @@ TEST(InformationFilterLazyTest, AgreesWithRefactoringEveryUpdateThroughALoopClos
   const int num_poses = static_cast<int>(scene.poses.size());
   InformationFilterOptions default_options;
   default_options.cg_flop_weight = 0.0;  // lazy whenever it may be
+  default_options.min_sightings = GetParam();
   InformationFilterOptions lazy_options = default_options;
   lazy_options.cg_tolerance = 1e-10;
   InformationFilterOptions exact_options;
   exact_options.iterative_recovery = false;
+  exact_options.min_sightings = GetParam();
   InformationFilter lazy(lazy_options, scene.camera), exact(exact_options, scene.camera);
   InformationFilter by_default(default_options, scene.camera);
-  testing::DenseReferenceFilter dense(exact_options.anchor_information, scene.camera);
+  testing::DenseReferenceFilter dense(exact_options.anchor_information, scene.camera, GetParam());
   const std::vector<FeatureObservation> first = Observe(scene, 0, true, &rng);
   lazy.AddFirstPose(scene.frame_ids[0], scene.poses[0], first);
   exact.AddFirstPose(scene.frame_ids[0], scene.poses[0], first);

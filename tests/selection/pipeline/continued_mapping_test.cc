@@ -137,6 +137,34 @@ TEST_F(ContinuedMappingTest, TwoHalvesGiveTheMapOfOneRunWithTheMapsKeyframesFirs
   for (const MapKeyframe& k : run.saved_map->keyframes) EXPECT_TRUE(k.has_ground_truth);
 }
 
+// With delayed initialisation the map's pending features survive the map file: the next
+// session's frames that see them again bring them into the state, with the sightings the map
+// kept, and the split run is as good as one run over the sequence.
+TEST_F(ContinuedMappingTest, TheMapsPendingFeaturesEnterWhenTheNextSessionSeesThem) {
+  RunOptions whole_options = Options(root_ / "first"),
+             half_options = Options(root_ / "first", 0, 19);
+  RunOptions options = Options(root_ / "first", 20);
+  for (RunOptions* o : {&whole_options, &half_options, &options}) {
+    o->pipeline.filter.min_sightings = 2;
+  }
+  const RunResult whole = RunOn(whole_options);
+  const RunResult half = RunOn(half_options);
+  ASSERT_TRUE(half.saved_map.has_value());
+  const LoadedMap map = ReadBack(*half.saved_map, root_ / "pending_map");
+  ASSERT_FALSE(map.map.filter.pending.empty());
+  const RunResult run = ContinueMapping(Continued(map, options).dataset, options);
+  int entered = 0;
+  for (const PendingFeature& p : map.map.filter.pending) {
+    entered += run.pipeline.filter->HasFeature(p.id) ? 1 : 0;
+  }
+  EXPECT_GT(entered, 10);
+  ASSERT_GE(whole.ate_keyframes_m, 0.0);
+  ASSERT_GE(run.ate_keyframes_m, 0.0);
+  EXPECT_LT(run.ate_keyframes_m, 0.01);
+  EXPECT_LT(run.ate_keyframes_m, 1.5 * whole.ate_keyframes_m + 0.001)
+      << "one run: " << whole.ate_keyframes_m;
+}
+
 TEST_F(ContinuedMappingTest, AContinuedMapReadsBackAndGoesOnAgain) {
   const RunResult third = RunOn(Options(root_ / "first", 0, 13));
   ASSERT_TRUE(third.saved_map.has_value());

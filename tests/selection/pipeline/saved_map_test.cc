@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <memory>
 
 #include <unistd.h>
 
@@ -89,6 +90,18 @@ void ExpectSameMap(const SavedMap& a, const SavedMap& b) {
   EXPECT_TRUE(SameBits(f.state, g.state));
   EXPECT_EQ(f.pose_offsets, g.pose_offsets);
   EXPECT_EQ(f.feature_offsets, g.feature_offsets);
+  ASSERT_EQ(f.pending.size(), g.pending.size());
+  for (size_t k = 0; k < f.pending.size(); ++k) {
+    EXPECT_EQ(f.pending[k].id, g.pending[k].id);
+    ASSERT_EQ(f.pending[k].sightings.size(), g.pending[k].sightings.size());
+    for (size_t i = 0; i < f.pending[k].sightings.size(); ++i) {
+      const FeatureSighting &x = f.pending[k].sightings[i], &y = g.pending[k].sightings[i];
+      EXPECT_EQ(x.frame_id, y.frame_id);
+      EXPECT_EQ(x.observation.feature_id, y.observation.feature_id);
+      EXPECT_TRUE(SameBits(x.observation.z, y.observation.z) &&
+                  SameBits(x.observation.Q, y.observation.Q));
+    }
+  }
 }
 
 class SavedMapTest : public ::testing::Test {
@@ -285,6 +298,51 @@ TEST_F(SavedMapTest, EachKindOfBadMapIsRefusedNamingTheFileAndTheFault) {
   other.colour.fx += 1.0;
   EXPECT_NO_THROW(CheckMapCalibration(*run_->saved_map, dataset_->rig(), MapDir().string()));
   EXPECT_THROW(CheckMapCalibration(*run_->saved_map, other, MapDir().string()), DataError);
+}
+
+// With delayed initialisation the map keeps the pending features: their sightings in the
+// filter's section (read back bit for bit, and taken over by a restored filter), their ids in
+// the base frames and in the keyframes' observations, so that a later session seeing them
+// again brings them in. A sighting from a frame that is no keyframe is refused.
+TEST(SavedMapDelayedTest, KeepsThePendingFeatures) {
+  const fs::path root =
+      fs::temp_directory_path() / ("ieslam_saved_map_delayed_test_" + std::to_string(::getpid()));
+  fs::create_directories(root / "run");
+  RunOptions options;
+  options.dataset = kDesk;
+  options.threads = 1;
+  options.pipeline.filter.min_sightings = 2;
+  const std::unique_ptr<Dataset> dataset = OpenDataset(options.dataset, options.dataset_options);
+  const RunResult run = RunOnDataset(*dataset, options);
+  WriteRunOutputs((root / "run").string(), *dataset, options, run);
+  ASSERT_TRUE(run.saved_map.has_value());
+  const SavedMap& map = *run.saved_map;
+  const InformationFilter& filter = *run.pipeline.filter;
+  ASSERT_GT(filter.num_pending_features(), 0);
+  ASSERT_EQ(static_cast<int>(map.filter.pending.size()), filter.num_pending_features());
+  int pending_rows = 0;
+  for (const MapBaseFrame& b : map.base_frames) {
+    for (int64_t id : b.feature_ids) pending_rows += id >= 0 && filter.IsPending(id) ? 1 : 0;
+  }
+  EXPECT_GE(pending_rows, filter.num_pending_features());
+
+  const SavedMap read = ReadSavedMap((root / "run" / kMapDirectory).string());
+  ExpectSameMap(read, map);
+  InformationFilter restored(filter.options(), filter.camera());
+  restored.Restore(read.filter);
+  EXPECT_EQ(restored.num_pending_features(), filter.num_pending_features());
+  EXPECT_TRUE(restored.state() == filter.state());
+
+  SavedMap bad = map;
+  bad.filter.pending.front().sightings.front().frame_id = 1 << 20;
+  WriteSavedMap((root / "run" / kMapDirectory).string(), bad);
+  try {
+    ReadSavedMap((root / "run" / kMapDirectory).string());
+    FAIL() << "a sighting from no keyframe was read";
+  } catch (const DataError& e) {
+    EXPECT_NE(std::string(e.what()).find("which is no keyframe"), std::string::npos) << e.what();
+  }
+  fs::remove_all(root);
 }
 
 }  // namespace
