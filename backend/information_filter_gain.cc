@@ -125,6 +125,51 @@ double MapTerm(const std::vector<Eigen::Matrix3d>& G, const std::vector<int>& in
   return map_term;
 }
 
+// The blocks a candidate's observations give the gain (InformationFilter::InformationGain).
+struct GainBlocks {
+  // Per known feature s: G_s with A_s = J_f^T W J_f = G_s G_s^T, and Bt_s = G_s^-1 B_s.
+  std::vector<Eigen::Matrix3d> G;
+  std::vector<Eigen::Matrix<double, 6, 3>> Bt_transposed;
+  std::vector<SightingColumns> sightings;
+  Matrix6d C = Matrix6d::Zero();
+  std::vector<int> in_known;  // block of each of S in known.covariance
+  double new_features_term = 0.0;
+  // The terms as the filter holding the pending features since their first sightings sees
+  // them (GainTerms): their first sightings' own blocks, and the pose's information with
+  // them known.
+  double first_sightings_term = 0.0, lone_terms = 0.0;
+  Matrix6d C_with_pending = Matrix6d::Zero();
+};
+
+// The gain from its blocks: log det C and the map term, and the terms into *terms.
+double CombineGain(const GainBlocks& b, const FeatureCovariance& known, GainTerms* terms) {
+  const double log_det_C = LogDetSpd(b.C);
+  if (!std::isfinite(log_det_C)) return kMinusInfinity;
+  int n = 3 * static_cast<int>(b.G.size());
+  for (const SightingColumns& columns : b.sightings) n += static_cast<int>(columns.G.cols());
+  Eigen::MatrixXd bordered(n + 6, n + 6);
+  for (size_t s = 0; s < b.G.size(); ++s) bordered.block<6, 3>(n, 3 * s) = b.Bt_transposed[s];
+  int col = 3 * static_cast<int>(b.G.size());
+  for (const SightingColumns& columns : b.sightings) {
+    bordered.block(n, col, 6, columns.H.cols()) = columns.H;
+    col += static_cast<int>(columns.H.cols());
+  }
+  const double map_term = MapTerm(b.G, b.in_known, b.sightings, known, b.C, log_det_C, &bordered);
+  if (!std::isfinite(map_term)) return kMinusInfinity;
+  const double gain = b.new_features_term + log_det_C + map_term;
+  if (terms == nullptr) return gain;
+  if (b.sightings.empty()) {
+    *terms = {b.new_features_term, log_det_C, map_term};
+    return gain;
+  }
+  const double pose_term = LogDetSpd(b.C_with_pending);
+  if (!std::isfinite(pose_term)) return kMinusInfinity;
+  terms->new_features = b.lone_terms + b.first_sightings_term;
+  terms->pose = pose_term;
+  terms->map = gain - terms->new_features - pose_term;
+  return gain;
+}
+
 }  // namespace
 
 FeatureCovariance InformationFilter::JointFeatureCovariance(
@@ -210,19 +255,8 @@ double InformationFilter::InformationGain(const Vector6d& T_w_c_candidate,
                                           const FeatureCovariance& known, GainTerms* terms) const {
   CheckRecovered();
   if (!ObservationsProblem(-1, observations).empty()) return kMinusInfinity;
-  // Per known feature s: G_s with A_s = J_f^T W J_f = G_s G_s^T, and Bt_s = G_s^-1 B_s.
-  std::vector<Eigen::Matrix3d> G;
-  std::vector<Eigen::Matrix<double, 6, 3>> Bt_transposed;
-  std::vector<SightingColumns> sightings;
-  Matrix6d C = Matrix6d::Zero();
-  std::vector<int> in_known;  // block of each of S in known.covariance
-  double new_features_term = 0.0;
+  GainBlocks b;
   int num_counted = 0;
-  // The terms as the filter holding the pending features since their first sightings sees
-  // them (GainTerms): their first sightings' own blocks, and the pose's information with
-  // them known.
-  double first_sightings_term = 0.0, lone_terms = 0.0;
-  Matrix6d C_with_pending = Matrix6d::Zero();
   for (const FeatureObservation& obs : observations) {
     const bool is_new = !HasFeature(obs.feature_id);
     if (is_new && !Enters(obs.feature_id)) continue;
@@ -238,8 +272,8 @@ double InformationFilter::InformationGain(const Vector6d& T_w_c_candidate,
         is_new ? PendingSightings(obs.feature_id) : nullptr;
     if (is_new && earlier == nullptr) {
       const double lone = LogDetSpd(J_f.transpose() * W * J_f);
-      new_features_term += lone;
-      lone_terms += lone;
+      b.new_features_term += lone;
+      b.lone_terms += lone;
       ++num_counted;
       continue;
     }
@@ -258,62 +292,38 @@ double InformationFilter::InformationGain(const Vector6d& T_w_c_candidate,
       if (!EliminateFeature(J_f_all, J_poses, &columns, &log_det_F)) return kMinusInfinity;
       for (int j = 0; j < k; ++j) {
         const auto U_J_f = J_f_all.middleRows<3>(3 * j);
-        first_sightings_term += LogDetSpd(U_J_f.transpose() * U_J_f);
+        b.first_sightings_term += LogDetSpd(U_J_f.transpose() * U_J_f);
       }
-      C_with_pending += J_p.transpose() * W * J_p;
+      b.C_with_pending += J_p.transpose() * W * J_p;
       for (const FeatureSighting& sighting : *earlier) {
         const auto it = known.pose_row.find(sighting.frame_id);
         CHECK(it != known.pose_row.end())
             << "pose " << sighting.frame_id << " is missing from the FeatureCovariance";
         columns.rows.push_back(it->second);
       }
-      new_features_term += log_det_F;
-      C += columns.H * columns.H.transpose();
-      sightings.push_back(std::move(columns));
+      b.new_features_term += log_det_F;
+      b.C += columns.H * columns.H.transpose();
+      b.sightings.push_back(std::move(columns));
       ++num_counted;
       continue;
     }
     const auto it = known.index.find(obs.feature_id);
     CHECK(it != known.index.end())
         << "feature " << obs.feature_id << " is missing from the FeatureCovariance";
-    in_known.push_back(it->second);
+    b.in_known.push_back(it->second);
     const Eigen::LLT<Eigen::Matrix3d> A_s(J_f.transpose() * W * J_f);
     CHECK(A_s.info() == Eigen::Success) << "a known feature's information is not positive definite";
-    G.push_back(A_s.matrixL());
-    Bt_transposed.push_back(A_s.matrixL().solve(J_f.transpose() * W * J_p).transpose());
+    b.G.push_back(A_s.matrixL());
+    b.Bt_transposed.push_back(A_s.matrixL().solve(J_f.transpose() * W * J_p).transpose());
     const Matrix6d C_s = J_p.transpose() * W * J_p;
-    C += C_s;
-    C_with_pending += C_s;
+    b.C += C_s;
+    b.C_with_pending += C_s;
   }
   CHECK(num_new_features_to_count < 0 || num_counted == num_new_features_to_count)
       << "the candidate has " << num_counted << " entering features, asked to count "
       << num_new_features_to_count;
 
-  const double log_det_C = LogDetSpd(C);
-  if (!std::isfinite(log_det_C)) return kMinusInfinity;
-  int n = 3 * static_cast<int>(G.size());
-  for (const SightingColumns& columns : sightings) n += static_cast<int>(columns.G.cols());
-  Eigen::MatrixXd bordered(n + 6, n + 6);
-  for (size_t s = 0; s < G.size(); ++s) bordered.block<6, 3>(n, 3 * s) = Bt_transposed[s];
-  int col = 3 * static_cast<int>(G.size());
-  for (const SightingColumns& columns : sightings) {
-    bordered.block(n, col, 6, columns.H.cols()) = columns.H;
-    col += static_cast<int>(columns.H.cols());
-  }
-  const double map_term = MapTerm(G, in_known, sightings, known, C, log_det_C, &bordered);
-  if (!std::isfinite(map_term)) return kMinusInfinity;
-  const double gain = new_features_term + log_det_C + map_term;
-  if (terms == nullptr) return gain;
-  if (sightings.empty()) {
-    *terms = {new_features_term, log_det_C, map_term};
-    return gain;
-  }
-  const double pose_term = LogDetSpd(C_with_pending);
-  if (!std::isfinite(pose_term)) return kMinusInfinity;
-  terms->new_features = lone_terms + first_sightings_term;
-  terms->pose = pose_term;
-  terms->map = gain - terms->new_features - pose_term;
-  return gain;
+  return CombineGain(b, known, terms);
 }
 
 }  // namespace ieslam

@@ -99,4 +99,15 @@ FrameRegistration RegisterFrames(const ProcessedFrame& a, const ProcessedFrame& 
   return out;
 }
 
+std::optional<Eigen::Isometry3d> StepMotion(const ProcessedFrame& a, const ProcessedFrame& b,
+                                            const FrontendOptions& frontend, double* match_s,
+                                            double* ransac_s) {
+  if (a.features.size() == 0 || b.features.size() == 0) return std::nullopt;
+  const FrameRegistration step = RegisterFrames(a, b, frontend.matching, frontend.registration);
+  *match_s += step.seconds_match;
+  *ransac_s += step.seconds_ransac;
+  if (!step.result.success) return std::nullopt;
+  return step.result.T_a_b;
+}
+
 }  // namespace ieslam

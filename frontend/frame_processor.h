@@ -3,8 +3,11 @@
 // RANSAC). Only keypoints that lifted are kept: the filter's observations are (u, v, d).
 #pragma once
 
+#include <optional>
 #include <string>
 #include <vector>
+
+#include <Eigen/Geometry>
 
 #include "core/camera.h"
 #include "core/dataset.h"
@@ -58,5 +61,12 @@ struct FrameRegistration {
 FrameRegistration RegisterFrames(const ProcessedFrame& a, const ProcessedFrame& b,
                                  const MatchOptions& matching,
                                  const RegistrationOptions& registration);
+
+// The motion T_a_b of one step between consecutive frames (a rolling-shutter frame's velocity
+// comes from these), or nullopt when either frame has no features or the registration fails.
+// The match and RANSAC seconds are added to *match_s and *ransac_s.
+std::optional<Eigen::Isometry3d> StepMotion(const ProcessedFrame& a, const ProcessedFrame& b,
+                                            const FrontendOptions& frontend, double* match_s,
+                                            double* ransac_s);
 
 }  // namespace ieslam

@@ -166,14 +166,7 @@ std::optional<Eigen::Isometry3d> RgbdFrameSource::RegisterStep(int later) {
     return ahead->second;
   };
   const ProcessedFrame& a = held(later - 1);
-  const ProcessedFrame& b = held(later);
-  if (a.features.size() == 0 || b.features.size() == 0) return std::nullopt;
-  const FrameRegistration step =
-      RegisterFrames(a, b, options_.frontend.matching, options_.frontend.registration);
-  timings_.match_s += step.seconds_match;
-  timings_.ransac_s += step.seconds_ransac;
-  if (!step.result.success) return std::nullopt;
-  return step.result.T_a_b;
+  return StepMotion(a, held(later), options_.frontend, &timings_.match_s, &timings_.ransac_s);
 }
 
 std::string RgbdFrameSource::UnusableReason(int frame) const {

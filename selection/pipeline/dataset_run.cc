@@ -106,8 +106,8 @@ std::map<int, CameraVelocity> RowVelocities(
 }
 
 // Loads each of `frames` once into the dense map (at its pose in `T_w_c`) and, when `clouds`
-// is set, as a range cloud; a frame with a velocity in `velocities` has each range row placed
-// from its own time's pose (a rolling shutter). A frame that cannot be loaded again, or whose range
+// is set, as a range cloud; for a rolling shutter each range row is placed from its own time's
+// pose (RowVelocities). A frame that cannot be loaded again, or whose range
 // image gives no cloud, is left out with a warning. Stops early, setting *stopped, once `stop`
 // (when set) says so. With workers > 0 that many threads load frames (decoding, points, clouds)
 // ahead of the caller, who adds them to the map in the given order: the same map as one
@@ -116,9 +116,9 @@ std::map<int, CameraVelocity> RowVelocities(
 void LoadSelectedFrames(const Dataset& dataset, const std::function<bool(int)>& has_images,
                         const std::vector<int>& frames,
                         const std::vector<std::optional<Eigen::Isometry3d>>& T_w_c,
-                        const std::map<int, CameraVelocity>& velocities,
-                        const RangeCloudOptions& cloud_options, int workers, DenseMap* map,
-                        RangeClouds* clouds, const std::function<bool()>& stop, bool* stopped,
+                        double velocity_max_step_s, const RangeCloudOptions& cloud_options,
+                        int workers, DenseMap* map, RangeClouds* clouds,
+                        const std::function<bool()>& stop, bool* stopped,
                         std::vector<std::string>* warnings) {
   const std::string uses = FrameUses(map != nullptr, clouds != nullptr);
   std::vector<int> placed;
@@ -126,6 +126,8 @@ void LoadSelectedFrames(const Dataset& dataset, const std::function<bool(int)>& 
     if (T_w_c[frame] && (!has_images || has_images(frame))) placed.push_back(frame);
   }
   if (placed.empty()) return;
+  const std::map<int, CameraVelocity> velocities =
+      RowVelocities(dataset, T_w_c, placed, velocity_max_step_s);
   const RangeRays rays(dataset.rig().range);
   const auto load = [&](int frame) {
     const auto velocity = velocities.find(frame);
@@ -288,6 +290,22 @@ PipelineResume StartFromMap(const ContinuedDataset& continued, const RunOptions&
   return continued.Resume();
 }
 
+// The dense map of the selected frames, loaded after the pipeline (which loaded none: no depth
+// alignment) on the prefetch workers; a stop after the selection ends it early.
+void MapSelectedFrames(const Dataset& dataset, const std::function<bool(int)>& has_images,
+                       const RunOptions& used, const PipelineHooks& hooks, RunResult* run) {
+  const auto map_start = std::chrono::steady_clock::now();
+  const bool selection_interrupted = run->pipeline.selection.interrupted;
+  const std::function<bool()> map_stop = [&] {
+    return !selection_interrupted && hooks.stop && hooks.stop();
+  };
+  LoadSelectedFrames(dataset, has_images, run->pipeline.selection.selected, run->pipeline.T_w_c,
+                     used.source.velocity_max_step_s, used.range_cloud,
+                     used.source.prefetch.workers, &*run->map, nullptr, map_stop,
+                     &run->stopped_after_selection, &run->warnings);
+  run->map_seconds += SecondsSince(map_start);
+}
+
 // RunOnDataset, or with `continued` (which is `dataset`) ContinueMapping.
 RunResult Run(const Dataset& dataset, const RunOptions& options, const PipelineHooks& hooks,
               const ContinuedDataset* continued) {
@@ -322,8 +340,7 @@ RunResult Run(const Dataset& dataset, const RunOptions& options, const PipelineH
   const RangeCloudLoader clouds = [&](const std::vector<int>& frames,
                                       const std::vector<std::optional<Eigen::Isometry3d>>& T_w_c) {
     RangeClouds loaded;
-    LoadSelectedFrames(dataset, has_images, frames, T_w_c,
-                       RowVelocities(dataset, T_w_c, frames, used.source.velocity_max_step_s),
+    LoadSelectedFrames(dataset, has_images, frames, T_w_c, used.source.velocity_max_step_s,
                        used.range_cloud, map_workers, run.map ? &*run.map : nullptr, &loaded,
                        loader_stop, &run.stopped_after_selection, &run.warnings);
     map_built = true;
@@ -347,20 +364,7 @@ RunResult Run(const Dataset& dataset, const RunOptions& options, const PipelineH
   const auto evaluation_start = std::chrono::steady_clock::now();
   CollectTrajectories(dataset, &run);
   run.evaluation_seconds = SecondsSince(evaluation_start);
-  if (run.map && !map_built) {
-    const auto map_start = std::chrono::steady_clock::now();
-    const bool selection_interrupted = run.pipeline.selection.interrupted;
-    const std::function<bool()> map_stop = [&] {
-      return !selection_interrupted && hooks.stop && hooks.stop();
-    };
-    const std::vector<int>& selected = run.pipeline.selection.selected;
-    LoadSelectedFrames(
-        dataset, has_images, selected, run.pipeline.T_w_c,
-        RowVelocities(dataset, run.pipeline.T_w_c, selected, used.source.velocity_max_step_s),
-        used.range_cloud, map_workers, &*run.map, nullptr, map_stop, &run.stopped_after_selection,
-        &run.warnings);
-    run.map_seconds += SecondsSince(map_start);
-  }
+  if (run.map && !map_built) MapSelectedFrames(dataset, has_images, used, hooks, &run);
   // A stop in the refinement or the map, where the selection no longer polls.
   if (!run.pipeline.selection.interrupted && hooks.stop && hooks.stop()) {
     run.stopped_after_selection = true;

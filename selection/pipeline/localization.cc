@@ -130,12 +130,7 @@ class LocalizedFrameSource {
   std::optional<Eigen::Isometry3d> RegisterStep(int later) {
     const ProcessedFrame& a = Fetch(later - 1).frame.processed;
     const ProcessedFrame& b = Fetch(later).frame.processed;
-    if (a.features.size() == 0 || b.features.size() == 0) return std::nullopt;
-    const FrameRegistration step = RegisterFrames(a, b, frontend_.matching, frontend_.registration);
-    seconds_->match += step.seconds_match;
-    seconds_->ransac += step.seconds_ransac;
-    if (!step.result.success) return std::nullopt;
-    return step.result.T_a_b;
+    return StepMotion(a, b, frontend_, &seconds_->match, &seconds_->ransac);
   }
 
   const Dataset& dataset_;

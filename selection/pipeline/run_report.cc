@@ -12,6 +12,11 @@
 namespace ieslam {
 namespace {
 
+// The q-quantile of ascending, non-empty `sorted` (the value at floor(q n)).
+double SortedQuantile(const std::vector<double>& sorted, double q) {
+  return sorted[std::min(sorted.size() - 1, static_cast<size_t>(q * sorted.size()))];
+}
+
 // [{frame, timestamp, sigma: [x, y, z (m), alpha, beta, gamma (rad)]}] from the estimate's
 // pose covariances, in frame order: the paper's Figs. 3-4 and 12 with real data.
 Json PoseSigmasToJson(const SlamEstimate& estimate, const std::map<int, double>& timestamps) {
@@ -97,10 +102,9 @@ Json RollingShutterToJson(const Dataset& dataset, const RunResult& run) {
   for (double rate : run.angular_rates_rad_s) deg_s.push_back(rate * 180.0 / M_PI);
   if (!deg_s.empty()) {
     std::sort(deg_s.begin(), deg_s.end());
-    const auto at = [&deg_s](double q) {
-      return deg_s[static_cast<size_t>(std::lround(q * (deg_s.size() - 1)))];
-    };
-    rates.Set("median", at(0.5)).Set("p90", at(0.9)).Set("max", deg_s.back());
+    rates.Set("median", SortedQuantile(deg_s, 0.5))
+        .Set("p90", SortedQuantile(deg_s, 0.9))
+        .Set("max", deg_s.back());
   }
   return Json::Object()
       .Set("readout_s", dataset.rig().colour_readout_s)
@@ -181,15 +185,35 @@ Json NoiseScalesToJson(std::vector<double> scales) {
   Json json = Json::Object().Set("frames", static_cast<int>(scales.size()));
   if (scales.empty()) return json;
   std::sort(scales.begin(), scales.end());
-  const auto at = [&scales](double q) {
-    return scales[std::min(scales.size() - 1, static_cast<size_t>(q * scales.size()))];
-  };
   return json
       .Set("scaled", static_cast<int>(std::count_if(scales.begin(), scales.end(),
                                                     [](double s) { return s > 1.0; })))
-      .Set("median", at(0.5))
-      .Set("p90", at(0.9))
+      .Set("median", SortedQuantile(scales, 0.5))
+      .Set("p90", SortedQuantile(scales, 0.9))
       .Set("max", scales.back());
+}
+
+Json GateToJson(const GateStatistics& gate) {
+  return Json::Object()
+      .Set("frames", gate.frames)
+      .Set("tested", gate.tested)
+      .Set("rejected", gate.rejected)
+      .Set("rejected_joint", gate.rejected_joint)
+      .Set("rejected_share", gate.rejected_share())
+      .Set("incompatible_frames", gate.incompatible_frames)
+      .Set("noise_scale", NoiseScalesToJson(gate.noise_scales));
+}
+
+Json SavedMapToJson(const SavedMap& map) {
+  int64_t keypoints = 0;
+  for (const MapBaseFrame& b : map.base_frames) keypoints += b.features.size();
+  return Json::Object()
+      .Set("file", std::string(kMapDirectory) + "/" + kMapFileName)
+      .Set("format_version", static_cast<int64_t>(kMapFormatVersion))
+      .Set("poses", static_cast<int>(map.keyframes.size()))
+      .Set("features", static_cast<int>(map.features.size()))
+      .Set("features_pending", static_cast<int>(map.filter.pending.size()))
+      .Set("keypoints", keypoints);
 }
 
 }  // namespace
@@ -228,28 +252,9 @@ Json RunReport(const Dataset& dataset, const RunOptions& options, const RunResul
                                     .Set("dataset_frames", dataset.size() - run.map_frames)
                                     .Set("load_seconds", run.map_load_seconds));
   }
-  if (run.saved_map) {
-    int64_t keypoints = 0;
-    for (const MapBaseFrame& b : run.saved_map->base_frames) keypoints += b.features.size();
-    report.Set("saved_map",
-               Json::Object()
-                   .Set("file", std::string(kMapDirectory) + "/" + kMapFileName)
-                   .Set("format_version", static_cast<int64_t>(kMapFormatVersion))
-                   .Set("poses", static_cast<int>(run.saved_map->keyframes.size()))
-                   .Set("features", static_cast<int>(run.saved_map->features.size()))
-                   .Set("features_pending", static_cast<int>(run.saved_map->filter.pending.size()))
-                   .Set("keypoints", keypoints));
-  }
+  if (run.saved_map) report.Set("saved_map", SavedMapToJson(*run.saved_map));
   if (run.velocity_counts) report.Set("rolling_shutter", RollingShutterToJson(dataset, run));
-  const GateStatistics& gate = p.selection.gate;
-  report.Set("observation_gate", Json::Object()
-                                     .Set("frames", gate.frames)
-                                     .Set("tested", gate.tested)
-                                     .Set("rejected", gate.rejected)
-                                     .Set("rejected_joint", gate.rejected_joint)
-                                     .Set("rejected_share", gate.rejected_share())
-                                     .Set("incompatible_frames", gate.incompatible_frames)
-                                     .Set("noise_scale", NoiseScalesToJson(gate.noise_scales)));
+  report.Set("observation_gate", GateToJson(p.selection.gate));
   // The dataset's warnings (printed when it was opened) and the run's, as printed.
   std::vector<std::string> warnings = dataset.warnings();
   warnings.insert(warnings.end(), run.warnings.begin(), run.warnings.end());

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <filesystem>
+#include <functional>
 #include <unordered_set>
 
 #include <glog/logging.h>
@@ -274,10 +275,10 @@ void ReadFilter(SectionReader* r, MapFilterState* f) {
   }
 }
 
-// Throws DataError `where`: why, when the map's parts do not hold together.
-void CheckConsistent(const SavedMap& map, const std::string& where) {
-  auto fail = [&](const std::string& why) { throw DataError(where + ": " + why); };
-  const MapFilterState& f = map.filter;
+using FailWith = std::function<void(const std::string&)>;
+
+// Fails unless the filter's matrix is a well-formed upper triangle in compressed columns.
+void CheckMatrixStructure(const MapFilterState& f, const FailWith& fail) {
   if (f.column_starts.size() != static_cast<size_t>(f.dim) + 1 || f.column_starts.front() != 0 ||
       f.column_starts.back() != static_cast<int>(f.rows.size())) {
     fail("the information matrix's column starts do not match its dimension and entries");
@@ -292,6 +293,51 @@ void CheckConsistent(const SavedMap& map, const std::string& where) {
       }
     }
   }
+}
+
+// Fails unless every feature id the map's pending features, keyframe observations and base
+// frames name is among `ids` (the map's features) and every pending sighting's frame is a
+// keyframe; the pending ids join `ids`.
+void CheckReferences(const SavedMap& map, std::unordered_set<int64_t>* ids, const FailWith& fail) {
+  // Pending features (seen by too few keyframes to be in the state) are the map's too: the
+  // keyframes' observations and the base frames may name them. The filter's Restore checks
+  // the rest of them.
+  std::unordered_set<int> frames;
+  for (const auto& [frame, offset] : map.filter.pose_offsets) frames.insert(frame);
+  for (const PendingFeature& p : map.filter.pending) {
+    if (p.id < 0 || !ids->insert(p.id).second) {
+      fail("pending feature " + std::to_string(p.id) + " has a negative id or is listed twice");
+    }
+    for (const FeatureSighting& sighting : p.sightings) {
+      if (frames.count(sighting.frame_id) == 0) {
+        fail("pending feature " + std::to_string(p.id) + " is seen by frame " +
+             std::to_string(sighting.frame_id) + ", which is no keyframe");
+      }
+    }
+  }
+  for (const MapKeyframe& k : map.keyframes) {
+    for (const FeatureObservation& o : k.observations) {
+      if (ids->count(o.feature_id) == 0) {
+        fail("keyframe " + std::to_string(k.frame) + " observes feature " +
+             std::to_string(o.feature_id) + ", which the map does not hold");
+      }
+    }
+  }
+  for (const MapBaseFrame& b : map.base_frames) {
+    for (int64_t id : b.feature_ids) {
+      if (id >= 0 && ids->count(id) == 0) {
+        fail("base frame " + std::to_string(b.frame) + " names feature " + std::to_string(id) +
+             ", which the map does not hold");
+      }
+    }
+  }
+}
+
+// Throws DataError `where`: why, when the map's parts do not hold together.
+void CheckConsistent(const SavedMap& map, const std::string& where) {
+  const FailWith fail = [&](const std::string& why) { throw DataError(where + ": " + why); };
+  const MapFilterState& f = map.filter;
+  CheckMatrixStructure(f, fail);
   if (f.pose_offsets.size() != map.keyframes.size() ||
       f.feature_offsets.size() != map.features.size() ||
       map.base_frames.size() != map.keyframes.size()) {
@@ -328,38 +374,7 @@ void CheckConsistent(const SavedMap& map, const std::string& where) {
   if (std::find(covered.begin(), covered.end(), 0) != covered.end()) {
     fail("part of the state belongs to no pose or feature");
   }
-  // Pending features (seen by too few keyframes to be in the state) are the map's too: the
-  // keyframes' observations and the base frames may name them. The filter's Restore checks
-  // the rest of them.
-  std::unordered_set<int> frames;
-  for (const auto& [frame, offset] : f.pose_offsets) frames.insert(frame);
-  for (const PendingFeature& p : f.pending) {
-    if (p.id < 0 || !ids.insert(p.id).second) {
-      fail("pending feature " + std::to_string(p.id) + " has a negative id or is listed twice");
-    }
-    for (const FeatureSighting& sighting : p.sightings) {
-      if (frames.count(sighting.frame_id) == 0) {
-        fail("pending feature " + std::to_string(p.id) + " is seen by frame " +
-             std::to_string(sighting.frame_id) + ", which is no keyframe");
-      }
-    }
-  }
-  for (const MapKeyframe& k : map.keyframes) {
-    for (const FeatureObservation& o : k.observations) {
-      if (ids.count(o.feature_id) == 0) {
-        fail("keyframe " + std::to_string(k.frame) + " observes feature " +
-             std::to_string(o.feature_id) + ", which the map does not hold");
-      }
-    }
-  }
-  for (const MapBaseFrame& b : map.base_frames) {
-    for (int64_t id : b.feature_ids) {
-      if (id >= 0 && ids.count(id) == 0) {
-        fail("base frame " + std::to_string(b.frame) + " names feature " + std::to_string(id) +
-             ", which the map does not hold");
-      }
-    }
-  }
+  CheckReferences(map, &ids, fail);
 }
 
 }  // namespace

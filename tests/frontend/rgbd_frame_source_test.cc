@@ -14,6 +14,7 @@
 
 #include "core/calibration.h"
 #include "frontend/simulation/synthetic_dataset.h"
+#include "global_shutter_calibration.h"
 
 namespace ieslam {
 namespace {
@@ -115,14 +116,12 @@ TEST(RgbdFrameSourceTest, RollingShutterFramesAreSeenFromTheirTimestampsPose) {
   synth.resolution_scale = 0.5;
   synth.readout_s = 0.03;
   WriteSyntheticDataset((root / "rs").string(), synth);
-  Rig global = ReadCalibration((root / "rs" / "calib.yaml").string());
-  ASSERT_EQ(global.colour_readout_s, 0.03);
-  global.colour_readout_s = 0.0;
-  WriteCalibration((root / "global.yaml").string(), global);
+  ASSERT_EQ(ReadCalibration((root / "rs" / "calib.yaml").string()).colour_readout_s, 0.03);
 
   const std::unique_ptr<Dataset> rolling = OpenDataset((root / "rs").string(), DatasetOptions());
   DatasetOptions as_global;
-  as_global.calib_file = (root / "global.yaml").string();
+  as_global.calib_file =
+      testing_files::WriteGlobalShutterCalibration(root / "rs", root / "global.yaml");
   const std::unique_ptr<Dataset> still = OpenDataset((root / "rs").string(), as_global);
   RgbdFrameSource compensating(*rolling, RgbdSourceOptions());
   RgbdFrameSource plain(*still, RgbdSourceOptions());

@@ -121,7 +121,9 @@ TEST_F(ContinuedMappingTest, TwoHalvesGiveTheMapOfOneRunWithTheMapsKeyframesFirs
   EXPECT_GT(reobserved, 50);
   EXPECT_GT(run.pipeline.filter->num_features(), static_cast<int>(map_ids.size()));
   for (const int64_t id : run.pipeline.filter->feature_ids()) {
-    if (map_ids.count(id) == 0) EXPECT_GT(id, last_map_id);
+    if (map_ids.count(id) == 0) {
+      EXPECT_GT(id, last_map_id);
+    }
   }
 
   // One map of the whole sequence, as good as one run over it (the split may change the

@@ -19,6 +19,7 @@
 #include "core/calibration.h"
 #include "core/error.h"
 #include "frontend/simulation/synthetic_dataset.h"
+#include "global_shutter_calibration.h"
 #include "selection/pipeline/run_outputs.h"
 #include "test_files.h"
 
@@ -268,9 +269,6 @@ TEST(DatasetRunRollingShutterTest, CompensationKeepsTheEstimateAndItsCovarianceR
   synth.readout_s = 0.03;
   synth.scene.seed = 3;
   WriteSyntheticDataset((root / "rs").string(), synth);
-  Rig global = ReadCalibration((root / "rs" / "calib.yaml").string());
-  global.colour_readout_s = 0.0;
-  WriteCalibration((root / "global.yaml").string(), global);
 
   RunOptions options;
   options.dataset = (root / "rs").string();
@@ -279,7 +277,8 @@ TEST(DatasetRunRollingShutterTest, CompensationKeepsTheEstimateAndItsCovarianceR
   options.save_map = false;
   const RunResult compensated =
       RunOnDataset(*OpenDataset(options.dataset, options.dataset_options), options);
-  options.dataset_options.calib_file = (root / "global.yaml").string();
+  options.dataset_options.calib_file =
+      testing_files::WriteGlobalShutterCalibration(root / "rs", root / "global.yaml");
   const RunResult sheared =
       RunOnDataset(*OpenDataset(options.dataset, options.dataset_options), options);
   fs::remove_all(root);

@@ -15,6 +15,7 @@
 
 #include "core/calibration.h"
 #include "frontend/simulation/synthetic_dataset.h"
+#include "global_shutter_calibration.h"
 #include "selection/pipeline/dataset_run.h"
 #include "selection/pipeline/localization_outputs.h"
 #include "two_passes.h"
@@ -193,11 +194,9 @@ TEST_F(LocalizationTest, ARollingShutterPassIsCompensatedFrameByFrame) {
   rolling.frames = 30;
   rolling.readout_s = 0.03;
   WriteSyntheticDataset((root_ / "rolling").string(), rolling);
-  Rig global = ReadCalibration((root_ / "rolling" / "calib.yaml").string());
-  global.colour_readout_s = 0.0;
-  WriteCalibration((root_ / "global.yaml").string(), global);
   DatasetOptions as_global;
-  as_global.calib_file = (root_ / "global.yaml").string();
+  as_global.calib_file =
+      testing_files::WriteGlobalShutterCalibration(root_ / "rolling", root_ / "global.yaml");
 
   const auto dataset = Open("rolling");
   const LocalizeResult compensated = Localize(*dataset);
