@@ -26,6 +26,10 @@ namespace {
 constexpr double kChiSquare3Median = 2.365974;
 // ... and with 6 (a relative pose).
 constexpr double kChiSquare6Median = 5.348121;
+// The relative poses are weighed anew (and the problem solved again) when their variance
+// factor moves by more than this ratio: finer changes move the estimate far less than its
+// uncertainty and would only add solves.
+constexpr double kRelativeWeightChange = 1.05;
 
 // The chi-square gate for 6 degrees of freedom with the tail probability that `gate3` has
 // for 3 (16.27, 1e-3 -> 22.46), by bisection on the closed-form tails.
@@ -301,8 +305,10 @@ class BundleAdjustmentRun {
   const BundleAdjustmentOptions& options_;
   BundleAdjustmentResult* result_;
   Parameters params_;
-  // One loss for every residual, owned here rather than by the problem.
+  // One loss for every observation, owned here rather than by the problem.
   std::unique_ptr<ceres::LossFunction> loss_;
+  // The relative poses' weight (1 / relative_pose_variance_factor; none: 1).
+  ceres::LossFunctionWrapper relative_loss_{nullptr, ceres::TAKE_OWNERSHIP};
   ceres::EigenQuaternionManifold quaternion_manifold_;
   ceres::Problem ceres_problem_;
   std::vector<ceres::ResidualBlockId> block_of_;
@@ -384,7 +390,7 @@ void BundleAdjustmentRun::AddRelativePoses() {
       throw DataError(name + ": not finite");
     }
     relative_block_.push_back(ceres_problem_.AddResidualBlock(
-        RelativePoseResidual::Create(c.T_sj_si, c.T_c_s, c.sqrt_information), nullptr,
+        RelativePoseResidual::Create(c.T_sj_si, c.T_c_s, c.sqrt_information), &relative_loss_,
         params_.q_w_c(c.frame_i), params_.t_w_c(c.frame_i), params_.q_w_c(c.frame_j),
         params_.t_w_c(c.frame_j)));
     for (const int frame_id : {c.frame_i, c.frame_j}) {
@@ -483,6 +489,16 @@ bool BundleAdjustmentRun::RejectOutliers() {
       NormsAndGate(relative_block_, kChiSquare6Median, SixDofGate(options_.rejection_chi2),
                    &relative_norm, &relative_factor);
   bool rejected = false;
+  // The norms are the unweighted ones, so the factor is measured afresh each time, not on
+  // top of the last.
+  double& weight_factor = result_->relative_pose_variance_factor;
+  if (options_.weigh_relative_poses &&
+      std::abs(std::log(relative_factor / weight_factor)) > std::log(kRelativeWeightChange)) {
+    weight_factor = relative_factor;
+    relative_loss_.Reset(new ceres::ScaledLoss(nullptr, 1.0 / weight_factor, ceres::TAKE_OWNERSHIP),
+                         ceres::TAKE_OWNERSHIP);
+    rejected = true;  // solve again with the new weight
+  }
   for (size_t k = 0; k < block_of_.size(); ++k) {
     if (block_of_[k] == nullptr || !(squared_norm[k] > gate)) continue;
     const BundleAdjustmentObservation& obs = problem_.observations[k];

@@ -75,6 +75,8 @@ const OptionTable<BundleAdjustmentOptions>& BundleAdjustmentOptions::Table() {
         .Min(0.0);
     t->Int("max_rejection_rounds", &O::max_rejection_rounds, "solves after rejections at most")
         .Min(0);
+    t->Bool("weigh_relative_poses", &O::weigh_relative_poses,
+            "relative poses' information divided by their own variance factor");
     t->Int("max_iterations", &O::max_iterations, "Levenberg-Marquardt iterations per solve").Min(1);
     t->Double("cost_tolerance", &O::cost_tolerance,
               "a step gaining less cost (1/2 chi-square) ends a solve (0: off)")

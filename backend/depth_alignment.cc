@@ -376,6 +376,10 @@ BundleAdjustmentResult SolveWithDepthAlignment(BundleAdjustmentProblem problem,
   *s = DepthAlignmentStats();
   if (options.rounds == 0) return SolveBundleAdjustment(problem, camera, ba_options);
   BundleAdjustmentResult result;
+  // The constraints' variance factor so far (BundleAdjustmentOptions::weigh_relative_poses):
+  // each round's constraints start at the weight the last round found, so that its first
+  // solve, and the observations rejected after it, do not follow overstated surfaces.
+  double variance_factor = 1.0;
   for (int round = 0; round < options.rounds; ++round) {
     if (round > 0 && ba_options.stop && ba_options.stop()) {
       result.interrupted = true;
@@ -383,6 +387,9 @@ BundleAdjustmentResult SolveWithDepthAlignment(BundleAdjustmentProblem problem,
     }
     const auto align_start = std::chrono::steady_clock::now();
     problem.relative_poses = AlignCloudPairs(clouds, problem.T_w_c, options, s);
+    for (RelativePoseConstraint& c : problem.relative_poses) {
+      c.sqrt_information /= std::sqrt(variance_factor);
+    }
     s->seconds_alignment += SecondsSince(align_start);
     const auto ba_start = std::chrono::steady_clock::now();
     BundleAdjustmentResult solved = SolveBundleAdjustment(problem, camera, ba_options);
@@ -399,6 +406,8 @@ BundleAdjustmentResult SolveWithDepthAlignment(BundleAdjustmentProblem problem,
       result.interrupted = true;
       break;
     }
+    variance_factor *= solved.relative_pose_variance_factor;
+    s->variance_factor = variance_factor;
     result = std::move(solved);
     double change = 0.0;
     for (const auto& [frame, T] : result.T_w_c) {

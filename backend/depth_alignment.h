@@ -93,6 +93,9 @@ struct DepthAlignmentStats {
   int pairs_tried = 0;  // last round: pairs whose clouds overlap at the starting poses
   int constraints = 0;  // last round: pairs aligned and used
   double mean_overlap = 0.0;
+  // The constraints' information was divided by this in the solve that stands
+  // (BundleAdjustmentOptions::weigh_relative_poses; 1 without).
+  double variance_factor = 1.0;
   double seconds_alignment = 0.0;  // all rounds
   double seconds_screen = 0.0;     // of which finding the overlapping pairs
   double seconds_ba = 0.0;

@@ -49,6 +49,7 @@ Json DepthAlignmentToJson(const Refinement& refinement) {
       .Set("pairs_tried", stats.pairs_tried)
       .Set("constraints", stats.constraints)
       .Set("rejected_constraints", refinement.depth_aligned.rejected_relative_poses)
+      .Set("constraint_variance_factor", stats.variance_factor)
       .Set("frames", refinement.depth_frames)
       .Set("frames_left_out", refinement.depth_frames_left_out)
       .Set("mean_overlap", stats.mean_overlap)

@@ -371,6 +371,76 @@ TEST(BundleAdjustmentTest, WithPosesRestartsThePosesAndPlacesTheFeaturesFromThem
   }
 }
 
+// Relative poses between every pair of frames with noise `sigma_true` per component, whose
+// information states `sigma_stated`.
+std::vector<RelativePoseConstraint> NoisyRelativePoses(const TestScene& scene, double sigma_true,
+                                                       double sigma_stated, std::mt19937* rng) {
+  std::normal_distribution<double> normal(0.0, 1.0);
+  std::vector<RelativePoseConstraint> constraints;
+  for (const auto& [i, pose_i] : scene.poses) {
+    for (const auto& [j, pose_j] : scene.poses) {
+      if (j <= i) continue;
+      Vector6d noise;
+      for (int k = 0; k < 6; ++k) noise[k] = sigma_true * normal(*rng);
+      Eigen::Isometry3d D = Eigen::Isometry3d::Identity();
+      D.linear() = Eigen::AngleAxisd(noise.head<3>().norm(), noise.head<3>().normalized())
+                       .toRotationMatrix();
+      D.translation() = noise.tail<3>();
+      RelativePoseConstraint c;
+      c.frame_i = i;
+      c.frame_j = j;
+      c.T_sj_si = D.inverse() * PoseToIsometry(pose_j).inverse() * PoseToIsometry(pose_i);
+      c.sqrt_information = Matrix6d::Identity() / sigma_stated;
+      constraints.push_back(c);
+    }
+  }
+  return constraints;
+}
+
+// Relative poses whose information overstates their noise 100-fold in variance are weighed
+// down by their variance factor, measured on their own residuals: the estimate then keeps
+// the observations' accuracy and its covariance covers its errors. Stated right, the factor
+// stays 1 and nothing changes.
+TEST(BundleAdjustmentTest, RelativePosesAreWeighedByTheirOwnVarianceFactor) {
+  std::mt19937 rng(11);
+  const TestScene scene = MakeTestScene(8, 150, &rng);
+  BundleAdjustmentProblem problem = MakeTestProblem(scene, 0.03, 0.02, 0.05, true, &rng);
+  problem.relative_poses = NoisyRelativePoses(scene, 0.01, 0.001, &rng);
+  BundleAdjustmentOptions options;
+  options.rejection_chi2 = 1e6;  // the weighing without rejections
+  const BundleAdjustmentResult weighed = SolveBundleAdjustment(problem, scene.camera, options);
+  options.weigh_relative_poses = false;
+  const BundleAdjustmentResult stated = SolveBundleAdjustment(problem, scene.camera, options);
+  ASSERT_TRUE(weighed.usable && stated.usable);
+  EXPECT_GT(weighed.relative_pose_variance_factor, 30.0);
+  EXPECT_LT(weighed.relative_pose_variance_factor, 300.0);
+  EXPECT_EQ(stated.relative_pose_variance_factor, 1.0);
+  const auto mean_nees = [&scene](const BundleAdjustmentResult& r) {
+    double nees = 0.0;
+    for (const auto& [frame_id, P] : r.pose_covariances_euler) {
+      if (frame_id == scene.poses.begin()->first) continue;
+      const Vector6d e = PoseDifference(r.poses.at(frame_id), scene.poses.at(frame_id));
+      nees += e.dot(P.ldlt().solve(e));
+    }
+    return nees / (scene.poses.size() - 1);
+  };
+  EXPECT_LT(mean_nees(weighed), 20.0);
+  EXPECT_GT(mean_nees(stated), 50.0);
+  EXPECT_LT(ErrorsToTruth(scene, weighed.T_w_c, weighed.p_w).max_translation_m,
+            ErrorsToTruth(scene, stated.T_w_c, stated.p_w).max_translation_m);
+
+  problem.relative_poses = NoisyRelativePoses(scene, 0.01, 0.01, &rng);
+  options.weigh_relative_poses = true;
+  const BundleAdjustmentResult right = SolveBundleAdjustment(problem, scene.camera, options);
+  options.weigh_relative_poses = false;
+  const BundleAdjustmentResult unweighed = SolveBundleAdjustment(problem, scene.camera, options);
+  EXPECT_EQ(right.relative_pose_variance_factor, 1.0);
+  EXPECT_EQ(right.solves, unweighed.solves);
+  for (const auto& [frame_id, T] : unweighed.T_w_c) {
+    EXPECT_TRUE(right.T_w_c.at(frame_id).isApprox(T, 1e-12)) << frame_id;
+  }
+}
+
 TEST(BundleAdjustmentTest, NoisyProblemReachesTheChiSquareCostAndBeatsTheStart) {
   std::mt19937 rng(5);
   const TestScene scene = MakeTestScene(10, 100, &rng);
