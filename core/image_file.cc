@@ -1,10 +1,10 @@
 #include "core/image_file.h"
 
-#include <array>
 #include <cctype>
 #include <cstdint>
 #include <vector>
 
+#include <zlib.h>
 #include <opencv2/imgcodecs.hpp>
 
 #include "core/error.h"
@@ -29,22 +29,10 @@ uint32_t LittleEndian32(const std::string& bytes, size_t at) {
   return v;
 }
 
-// PNG's CRC-32 (ISO 3309) of bytes[at, at + size).
+// PNG's CRC-32 (ISO 3309, zlib's) of bytes[at, at + size); size < 2^31 (a chunk's length).
 uint32_t Crc32(const std::string& bytes, size_t at, size_t size) {
-  static const std::array<uint32_t, 256> kTable = [] {
-    std::array<uint32_t, 256> table{};
-    for (uint32_t n = 0; n < 256; ++n) {
-      uint32_t c = n;
-      for (int k = 0; k < 8; ++k) c = (c & 1) ? 0xedb88320u ^ (c >> 1) : c >> 1;
-      table[n] = c;
-    }
-    return table;
-  }();
-  uint32_t c = 0xffffffffu;
-  for (size_t i = at; i < at + size; ++i) {
-    c = kTable[(c ^ static_cast<uint8_t>(bytes[i])) & 0xff] ^ (c >> 8);
-  }
-  return c ^ 0xffffffffu;
+  return static_cast<uint32_t>(
+      ::crc32(0L, reinterpret_cast<const Bytef*>(bytes.data() + at), static_cast<uInt>(size)));
 }
 
 // Complete when an end-of-image marker follows the last start-of-scan: entropy-coded data
