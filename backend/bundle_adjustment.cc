@@ -262,6 +262,7 @@ class BundleAdjustmentRun {
       solver_options_.linear_solver_ordering = ordering;
     }
     ceres::Solve(solver_options_, &ceres_problem_, &summary_);
+    result_->relative_pose_variance_factor = weight_factor_;
     if (result_->solves++ == 0) result_->initial_cost = summary_.initial_cost;
     result_->linear_solver = ceres::LinearSolverTypeToString(summary_.linear_solver_type_used);
     result_->iterations += static_cast<int>(summary_.iterations.size());
@@ -269,7 +270,13 @@ class BundleAdjustmentRun {
 
   bool usable() const { return summary_.IsSolutionUsable(); }
 
-  // Removes the observations and relative poses outside the gate; false if there was none.
+  // Weighs the relative poses by their variance factor at the current solution
+  // (options.weigh_relative_poses); true when their weight moved by more than
+  // kRelativeWeightChange and the problem is to be solved again. RejectOutliers does it too.
+  bool Reweigh();
+
+  // Removes the observations and relative poses outside the gate and weighs the relative
+  // poses anew (Reweigh); false if neither changed anything.
   bool RejectOutliers();
   // The result's poses, features, costs and diagnostics (solve_time_s from `start`).
   void Collect(int anchor_id, std::chrono::steady_clock::time_point start);
@@ -285,6 +292,9 @@ class BundleAdjustmentRun {
 
   void AddObservations();
   void AddRelativePoses();
+  // The relative poses' weight set to 1 / factor if that moves it by more than
+  // kRelativeWeightChange (options.weigh_relative_poses); true if it did.
+  bool ReweighTo(double factor);
   void SetSolverOptions();
   // The squared whitened norm of each block still in the problem (infinite where it cannot
   // be evaluated), and the gate: `gate` widened by the kept norms' variance factor, median /
@@ -307,8 +317,9 @@ class BundleAdjustmentRun {
   Parameters params_;
   // One loss for every observation, owned here rather than by the problem.
   std::unique_ptr<ceres::LossFunction> loss_;
-  // The relative poses' weight (1 / relative_pose_variance_factor; none: 1).
+  // The relative poses' weight, 1 / weight_factor_ (none: 1).
   ceres::LossFunctionWrapper relative_loss_{nullptr, ceres::TAKE_OWNERSHIP};
+  double weight_factor_ = 1.0;
   ceres::EigenQuaternionManifold quaternion_manifold_;
   ceres::Problem ceres_problem_;
   std::vector<ceres::ResidualBlockId> block_of_;
@@ -479,6 +490,22 @@ void BundleAdjustmentRun::ReleaseFrame(int frame_id) {
   }
 }
 
+bool BundleAdjustmentRun::Reweigh() {
+  std::vector<double> norms;
+  double factor = 1.0;
+  NormsAndGate(relative_block_, kChiSquare6Median, 1.0, &norms, &factor);
+  return ReweighTo(factor);
+}
+
+bool BundleAdjustmentRun::ReweighTo(double factor) {
+  if (!options_.weigh_relative_poses) return false;
+  if (std::abs(std::log(factor / weight_factor_)) <= std::log(kRelativeWeightChange)) return false;
+  weight_factor_ = factor;
+  relative_loss_.Reset(new ceres::ScaledLoss(nullptr, 1.0 / factor, ceres::TAKE_OWNERSHIP),
+                       ceres::TAKE_OWNERSHIP);
+  return true;
+}
+
 bool BundleAdjustmentRun::RejectOutliers() {
   std::vector<double> squared_norm, relative_norm;
   const double gate = NormsAndGate(block_of_, kChiSquare3Median, options_.rejection_chi2,
@@ -488,17 +515,9 @@ bool BundleAdjustmentRun::RejectOutliers() {
   const double relative_gate =
       NormsAndGate(relative_block_, kChiSquare6Median, SixDofGate(options_.rejection_chi2),
                    &relative_norm, &relative_factor);
-  bool rejected = false;
   // The norms are the unweighted ones, so the factor is measured afresh each time, not on
-  // top of the last.
-  double& weight_factor = result_->relative_pose_variance_factor;
-  if (options_.weigh_relative_poses &&
-      std::abs(std::log(relative_factor / weight_factor)) > std::log(kRelativeWeightChange)) {
-    weight_factor = relative_factor;
-    relative_loss_.Reset(new ceres::ScaledLoss(nullptr, 1.0 / weight_factor, ceres::TAKE_OWNERSHIP),
-                         ceres::TAKE_OWNERSHIP);
-    rejected = true;  // solve again with the new weight
-  }
+  // top of the last; the solve that follows the rejections uses it.
+  bool rejected = ReweighTo(relative_factor);
   for (size_t k = 0; k < block_of_.size(); ++k) {
     if (block_of_[k] == nullptr || !(squared_norm[k] > gate)) continue;
     const BundleAdjustmentObservation& obs = problem_.observations[k];
@@ -657,10 +676,12 @@ BundleAdjustmentResult SolveBundleAdjustment(const BundleAdjustmentProblem& prob
   BundleAdjustmentRun run(problem, camera, options, &result);
   run.Build(anchor_id);
   run.Solve();
-  for (int round = 0; options.rejection_chi2 > 0.0 && round < options.max_rejection_rounds &&
-                      run.usable() && !result.interrupted;
+  // Rounds of rejections and of the relative poses' weighing, measured on what the last
+  // solve kept (only the weighing when rejection_chi2 is 0).
+  const bool rejecting = options.rejection_chi2 > 0.0;
+  for (int round = 0; round < options.max_rejection_rounds && run.usable() && !result.interrupted;
        ++round) {
-    if (!run.RejectOutliers()) break;
+    if (!(rejecting ? run.RejectOutliers() : run.Reweigh())) break;
     run.Solve();
   }
   run.Collect(anchor_id, start);

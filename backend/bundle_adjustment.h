@@ -79,13 +79,15 @@ struct BundleAdjustmentOptions {
   // (docs/filter_internals.md). 0: keep every observation (the filter's exact problem).
   double rejection_chi2 = 16.27;
   int max_rejection_rounds = 5;
-  // Relative poses weighed by their own variance factor: after each round of rejections
-  // their information is divided by the median of their squared whitened residuals over
-  // chi-square(6)'s median (>= 1, as the gate's widening), and the problem is solved again
-  // when that changes the weight by more than 5%. A dense alignment's information counts its
-  // thousands of points as independent; a range imager's errors are correlated within a
-  // frame (depth distortion, calibration, timing), and the constraints' own spread about
-  // the joint optimum says by how much. Where the information is right the factor is 1.
+  // Relative poses weighed by their own variance factor: after each solve, with each round of
+  // rejections (also when rejection_chi2 is 0, within max_rejection_rounds), their
+  // information is divided by the median of their squared whitened residuals over
+  // chi-square(6)'s median (>= 1, as the gate's widening: never more precise than stated), and
+  // the problem is solved again when that moved the weight by more than 5%. A dense alignment's
+  // information counts its thousands of points as independent; a range imager's errors are
+  // correlated within a frame (depth distortion, calibration, timing), and the constraints' own
+  // spread about the joint optimum says by how much. Where the information is right the factor
+  // is 1.
   bool weigh_relative_poses = true;
   // With the Schur solvers the features are eliminated first and the reduced camera system
   // of the poses is factored, densely (Eigen) or sparsely (SuiteSparse/CHOLMOD);
@@ -189,7 +191,7 @@ struct BundleAdjustmentResult {
   // Relative poses dropped by the same gate at the same probability for 6 degrees of freedom
   // (22.46 for rejection_chi2 16.27), widened by their own variance factor.
   int rejected_relative_poses = 0;
-  // The relative poses' information was divided by this at the last solve
+  // The relative poses' information was divided by this in the last solve that ran
   // (weigh_relative_poses; 1 without).
   double relative_pose_variance_factor = 1.0;
 

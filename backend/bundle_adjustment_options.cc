@@ -73,7 +73,8 @@ const OptionTable<BundleAdjustmentOptions>& BundleAdjustmentOptions::Table() {
     t->Double("rejection_chi2", &O::rejection_chi2,
               "drop observations with |W (h - z)|^2 above this and solve again (0: keep all)")
         .Min(0.0);
-    t->Int("max_rejection_rounds", &O::max_rejection_rounds, "solves after rejections at most")
+    t->Int("max_rejection_rounds", &O::max_rejection_rounds,
+           "solves after rejections (or a new weight of the relative poses) at most")
         .Min(0);
     t->Bool("weigh_relative_poses", &O::weigh_relative_poses,
             "relative poses' information divided by their own variance factor");

@@ -378,8 +378,14 @@ BundleAdjustmentResult SolveWithDepthAlignment(BundleAdjustmentProblem problem,
   BundleAdjustmentResult result;
   // The constraints' variance factor so far (BundleAdjustmentOptions::weigh_relative_poses):
   // each round's constraints start at the weight the last round found, so that its first
-  // solve, and the observations rejected after it, do not follow overstated surfaces.
+  // solve does not follow overstated surfaces. It only grows (each round's factor is >= 1):
+  // measured at a solution the constraints dominate, the median of their residuals
+  // understates their noise, so a later round's larger factor is the better one.
   double variance_factor = 1.0;
+  const auto stand = [&](BundleAdjustmentResult&& solved) {
+    s->variance_factor = variance_factor * solved.relative_pose_variance_factor;
+    result = std::move(solved);
+  };
   for (int round = 0; round < options.rounds; ++round) {
     if (round > 0 && ba_options.stop && ba_options.stop()) {
       result.interrupted = true;
@@ -398,17 +404,16 @@ BundleAdjustmentResult SolveWithDepthAlignment(BundleAdjustmentProblem problem,
     // A round whose solve failed is dropped: the last usable one stands (the caller sees
     // usable == false only when the first round failed).
     if (!solved.usable) {
-      if (round == 0) result = std::move(solved);
+      if (round == 0) stand(std::move(solved));
       break;
     }
     if (solved.interrupted) {
-      if (round == 0) result = std::move(solved);
+      if (round == 0) stand(std::move(solved));
       result.interrupted = true;
       break;
     }
-    variance_factor *= solved.relative_pose_variance_factor;
-    s->variance_factor = variance_factor;
-    result = std::move(solved);
+    stand(std::move(solved));
+    variance_factor = s->variance_factor;
     double change = 0.0;
     for (const auto& [frame, T] : result.T_w_c) {
       const Eigen::Isometry3d D = problem.T_w_c.at(frame).inverse() * T;

@@ -29,12 +29,6 @@ uint32_t LittleEndian32(const std::string& bytes, size_t at) {
   return v;
 }
 
-// PNG's CRC-32 (ISO 3309, zlib's) of bytes[at, at + size); size < 2^31 (a chunk's length).
-uint32_t Crc32(const std::string& bytes, size_t at, size_t size) {
-  return static_cast<uint32_t>(
-      ::crc32(0L, reinterpret_cast<const Bytef*>(bytes.data() + at), static_cast<uInt>(size)));
-}
-
 // Complete when an end-of-image marker follows the last start-of-scan: entropy-coded data
 // stuffs every FF byte, so neither marker occurs inside a scan, and a trailer after the image
 // (a second MPO frame, vendor data) leaves the image's own FF D9 before it.
@@ -64,7 +58,8 @@ std::string PngReason(const std::string& bytes) {
     // with a line of its own on stderr; ancillary chunks it skips with a warning, and so do we.
     const uint32_t crc = BigEndian32(bytes, static_cast<size_t>(end) - 4);
     if (std::isupper(static_cast<unsigned char>(type[0])) &&
-        Crc32(bytes, at + 4, static_cast<size_t>(length) + 4) != crc) {
+        crc32_z(0L, reinterpret_cast<const Bytef*>(bytes.data() + at + 4),
+                static_cast<size_t>(length) + 4) != crc) {
       return "damaged: the CRC of PNG chunk '" + type + "' at byte " + std::to_string(at) +
              " does not match its data";
     }
