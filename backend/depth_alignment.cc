@@ -202,7 +202,11 @@ const OptionTable<DepthAlignmentOptions>& DepthAlignmentOptions::Table() {
     t->Int("rounds", &O::rounds,
            "alternations of pairwise alignment and bundle adjustment (0: off)")
         .Min(0);
-    t->Int("sample_step", &O::sample_step, "every n-th cloud point is matched").Range(1, 64);
+    t->Int("sample_step", &O::sample_step, "every n-th cloud point is matched (first round)")
+        .Range(1, 64);
+    t->Int("dense_sample_step", &O::dense_sample_step,
+           "later rounds' step where the points prove independent")
+        .Range(1, 64);
     t->Double("initial_gate_m", &O::initial_gate_m,
               "point-to-point association gate, until converged")
         .Above(0.0);
@@ -232,6 +236,10 @@ const OptionTable<DepthAlignmentOptions>& DepthAlignmentOptions::Table() {
       return o.final_gate_m <= o.initial_gate_m ? std::string()
                                                 : "final_gate_m must be <= initial_gate_m";
     });
+    t->Require([](const O& o) {
+      return o.dense_sample_step <= o.sample_step ? std::string()
+                                                  : "dense_sample_step must be <= sample_step";
+    });
     return t;
   }();
   return *table;
@@ -243,17 +251,34 @@ PairAlignment AlignRangeClouds(const RangeCloud& source, const RangeCloud& targe
   PairAlignment result;
   const std::vector<int> samples = Samples(source, options.sample_step);
   result.samples = static_cast<int>(samples.size());
+  // Coarse to fine: the first phase only brings the pose into the final phase's basin, so it
+  // matches a quarter of the points (the grid at twice the step) under the initial gate; the
+  // final phase matches them all under the final gate, and its minimum is the result.
+  const std::vector<int> coarse = Samples(source, 2 * options.sample_step);
+  struct Phase {
+    const std::vector<int>* samples;
+    double gate_m;
+    int min_correspondences;  // the same share of the phase's samples
+  };
+  const double coarse_share =
+      samples.empty() ? 0.0 : static_cast<double>(coarse.size()) / samples.size();
+  const Phase phases[2] = {
+      {&coarse, options.initial_gate_m,
+       static_cast<int>(std::ceil(options.min_correspondences * coarse_share))},
+      {&samples, options.final_gate_m, options.min_correspondences}};
+  int phase = 0;
   Eigen::Isometry3d Y = T_t_s_initial;
-  double gate = options.initial_gate_m;
   bool converged = false;
   // Converged once a step is below a tenth of a millimetre (and of a milliradian, a tenth of
   // a millimetre at 1 m), an order of magnitude under any point's range noise: the gates
   // switch single points in and out near the optimum and keep steps of ~1e-5 going forever.
   constexpr double kConverged = 1e-4;
-  NormalEquations eq = Associate(source, target, samples, Y, gate, options);
+  NormalEquations eq = Associate(source, target, coarse, Y, phases[0].gate_m, options);
   for (int it = 0; it < options.max_iterations && !converged; ++it) {
-    if (eq.count < options.min_correspondences) {
-      result.why_not = "too few correspondences (" + std::to_string(eq.count) + ")";
+    const Phase& current = phases[phase];
+    if (eq.count < current.min_correspondences) {
+      result.why_not = "too few correspondences (" + std::to_string(eq.count) + " of " +
+                       std::to_string(current.samples->size()) + ")";
       return result;
     }
     // Gauss-Newton with backtracking: the full step, else halves of it, the first that
@@ -262,7 +287,8 @@ PairAlignment AlignRangeClouds(const RangeCloud& source, const RangeCloud& targe
     bool moved = false;
     for (int halving = 0; halving < 4; ++halving) {
       const Eigen::Isometry3d Y_next = Increment(step) * Y;
-      NormalEquations next = Associate(source, target, samples, Y_next, gate, options);
+      NormalEquations next =
+          Associate(source, target, *current.samples, Y_next, current.gate_m, options);
       if (next.cost < eq.cost) {
         Y = Y_next;
         eq = std::move(next);
@@ -273,9 +299,12 @@ PairAlignment AlignRangeClouds(const RangeCloud& source, const RangeCloud& targe
     }
     ++result.iterations;
     if (!moved || (step.head<3>().norm() < kConverged && step.tail<3>().norm() < kConverged)) {
-      if (gate == options.final_gate_m) converged = true;
-      gate = options.final_gate_m;
-      eq = Associate(source, target, samples, Y, gate, options);
+      if (phase == 1) {
+        converged = true;
+      } else {
+        phase = 1;
+        eq = Associate(source, target, samples, Y, phases[1].gate_m, options);
+      }
     }
   }
   if (!converged) {
@@ -382,8 +411,18 @@ BundleAdjustmentResult SolveWithDepthAlignment(BundleAdjustmentProblem problem,
   // measured at a solution the constraints dominate, the median of their residuals
   // understates their noise, so a later round's larger factor is the better one.
   double variance_factor = 1.0;
+  // The first round samples the clouds at options.sample_step. Where the constraints then
+  // prove no more precise than they state (a variance factor below kIndependentFactor: the
+  // sampled points' errors are independent, as the information assumes), denser points add
+  // information in proportion, and the next rounds halve the step, down to
+  // dense_sample_step. Where the factor is larger, the errors are correlated over more than
+  // the sample spacing, and denser points would only add time and stated information that
+  // the factor takes back.
+  constexpr double kIndependentFactor = 2.0;
+  DepthAlignmentOptions round_options = options;
   const auto stand = [&](BundleAdjustmentResult&& solved) {
     s->variance_factor = variance_factor * solved.relative_pose_variance_factor;
+    s->sample_step = round_options.sample_step;
     result = std::move(solved);
   };
   for (int round = 0; round < options.rounds; ++round) {
@@ -392,7 +431,7 @@ BundleAdjustmentResult SolveWithDepthAlignment(BundleAdjustmentProblem problem,
       break;
     }
     const auto align_start = std::chrono::steady_clock::now();
-    problem.relative_poses = AlignCloudPairs(clouds, problem.T_w_c, options, s);
+    problem.relative_poses = AlignCloudPairs(clouds, problem.T_w_c, round_options, s);
     for (RelativePoseConstraint& c : problem.relative_poses) {
       c.sqrt_information /= std::sqrt(variance_factor);
     }
@@ -421,7 +460,14 @@ BundleAdjustmentResult SolveWithDepthAlignment(BundleAdjustmentProblem problem,
     }
     problem.T_w_c = result.T_w_c;
     problem.p_w = result.p_w;
-    if (change < options.convergence_m) break;
+    const bool denser = ba_options.weigh_relative_poses && variance_factor < kIndependentFactor &&
+                        round_options.sample_step > options.dense_sample_step;
+    if (denser) {
+      round_options.sample_step =
+          std::max(options.dense_sample_step, round_options.sample_step / 2);
+    } else if (change < options.convergence_m) {
+      break;
+    }
   }
   return result;
 }

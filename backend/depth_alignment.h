@@ -25,11 +25,17 @@
 namespace ieslam {
 
 struct DepthAlignmentOptions {
-  // Every n-th grid point of the source cloud in each direction is associated. With
-  // RangeCloudOptions::step 4 that is one point per 8 range pixels, about the size of the
-  // window a structured-light sensor correlates to measure one depth (Kinect v1: 9 x 9), so
-  // that the points' noise is close to independent, as the information assumes.
-  int sample_step = 2;
+  // Every n-th grid point of the source cloud in each direction is associated: with
+  // RangeCloudOptions::step 4, one point per 16 range pixels. The information counts the
+  // points as independent, but a Kinect's range errors are correlated over much more than
+  // that: the constraints' variance factor (BundleAdjustmentOptions::weigh_relative_poses)
+  // is 30-500 at one point per 8 pixels and a quarter of that at one per 16, so there more
+  // points add time and stated information, which the factor takes back, and little else.
+  int sample_step = 4;
+  // Later rounds halve the step down to this one where the first rounds' constraints prove
+  // as precise as they state (SolveWithDepthAlignment): the points' errors independent, as on
+  // a sensor that fits its noise model.
+  int dense_sample_step = 2;
   int max_iterations = 30;
   // Association gates on the point-to-point distance. The first phase allows for the error
   // of the starting relative pose (the front end's registrations are good to about a
@@ -46,13 +52,14 @@ struct DepthAlignmentOptions {
   double huber_sigmas = 2.0;
   // A pair is aligned when at least min_overlap of the source's sampled points land on the
   // target's surfaces at the starting poses, and counts when as many have a partner at the
-  // end, at least min_correspondences, and the robust spread of the whitened residuals
-  // (1.4826 median |r| / sigma) is below max_robust_sigma: a wrong alignment leaves
+  // end, at least min_correspondences (a view has up to 1,200 samples at sample_step 4; 50
+  // fix the six parameters several times over), and the robust spread of the whitened
+  // residuals (1.4826 median |r| / sigma) is below max_robust_sigma: a wrong alignment leaves
   // surfaces apart and fails it. The share is low on purpose: the pairs that close loops
   // see the same surfaces from far apart and share little, and are the ones that remove
   // drift; a small overlap already carries only the information of its own points.
   double min_overlap = 0.1;
-  int min_correspondences = 200;
+  int min_correspondences = 50;
   // Each frame picks at most this many others to be aligned with, spread over the sequence
   // (a pair is aligned when either frame picks it): the work and the bundle adjustment's
   // terms grow linearly with the frames, not quadratically.
@@ -96,6 +103,7 @@ struct DepthAlignmentStats {
   // The constraints' information was divided by this in the solve that stands
   // (BundleAdjustmentOptions::weigh_relative_poses; 1 without).
   double variance_factor = 1.0;
+  int sample_step = 0;             // the clouds' sampling in the solve that stands
   double seconds_alignment = 0.0;  // all rounds
   double seconds_screen = 0.0;     // of which finding the overlapping pairs
   double seconds_ba = 0.0;

@@ -116,6 +116,14 @@ class GridPointEstimator {
   const double min_cos_incidence_;
 };
 
+// The grid row nearest to y, clamped to the grid (0 for NaN): std::lround clamped, up to the
+// last bit at halves, and inline, because it runs for every point of every dense alignment.
+int NearestRow(double y, int height) {
+  if (!(y > 0.0)) return 0;
+  if (!(y < height - 1)) return height - 1;
+  return static_cast<int>(y + 0.5);
+}
+
 }  // namespace
 
 const OptionTable<RangeCloudOptions>& RangeCloudOptions::Table() {
@@ -150,9 +158,12 @@ bool RangeCloud::Interpolate(const Eigen::Vector3d& p, double max_depth_ratio, E
   Eigen::Vector2d cell = grid.Project(p);
   if (!to_row.empty()) {
     // The row p lands on, seen from that row's pose: the rows' poses differ little, so two
-    // rounds settle it.
+    // rounds settle it (one when the first lands on the row it started from).
+    int previous_row = -1;
     for (int round = 0; round < 2; ++round) {
-      const int row = std::clamp(static_cast<int>(std::lround(cell.y())), 0, grid.height - 1);
+      const int row = NearestRow(cell.y(), grid.height);
+      if (row == previous_row) break;
+      previous_row = row;
       const Eigen::Vector3d p_row = to_row[row].cast<double>() * p;
       if (!(p_row.z() > 0.0)) return false;
       cell = grid.Project(p_row);

@@ -50,6 +50,7 @@ Json DepthAlignmentToJson(const Refinement& refinement) {
       .Set("constraints", stats.constraints)
       .Set("rejected_constraints", refinement.depth_aligned.rejected_relative_poses)
       .Set("constraint_variance_factor", stats.variance_factor)
+      .Set("sample_step", stats.sample_step)
       .Set("frames", refinement.depth_frames)
       .Set("frames_left_out", refinement.depth_frames_left_out)
       .Set("mean_overlap", stats.mean_overlap)

@@ -208,6 +208,56 @@ TEST(DepthAlignmentTest, RefinementWithCloudsAloneRecoversThePoses) {
   }
 }
 
+// The clouds' sampling follows what their constraints show. Where the range errors are as
+// the noise model states (independent per pixel), the constraints are as precise as they
+// state and the later rounds sample twice as densely. Where each frame's depth is off by its
+// own scale (+-2%, within a Kinect's depth calibration error; correlated across the whole
+// image), the constraints disagree far beyond their stated precision (a variance factor of
+// about 25) and the sampling stays as it started.
+TEST(DepthAlignmentTest, CloudsAreSampledDenselyOnlyWhereTheirErrorsAreIndependent) {
+  const RangeImager range = testing_core::KinectRangeImager();
+  std::map<int, Eigen::Isometry3d> truth;
+  std::map<int, double> scale_error;
+  for (int frame = 0; frame < 8; ++frame) {
+    const double a = frame / 8.0 * 2.0 * M_PI;
+    truth[frame] = Pose(0.15 * std::cos(a), 0.05 * std::sin(2 * a), 0.15 * std::sin(a),
+                        12.0 * std::sin(a), 4.0 * std::cos(a));
+    scale_error[frame] = (frame % 2 == 0 ? 1.0 : -1.0) * 0.02;
+  }
+  for (const bool correlated : {false, true}) {
+    SCOPED_TRACE(correlated ? "depth scale errors" : "independent noise");
+    std::map<int, RangeCloud> clouds;
+    BundleAdjustmentProblem problem;
+    std::mt19937 rng(5);
+    for (const auto& [frame, T] : truth) {
+      cv::Mat depth = RenderRoom(range, T, &rng);
+      if (correlated) depth *= 1.0 + scale_error.at(frame);
+      clouds[frame] = MakeRangeCloud(depth, range, Eigen::Isometry3d::Identity(),
+                                     RangeCloudOptions(), "rendered");
+      problem.T_w_c[frame] = frame == 0 ? T
+                                        : Perturb(T, Eigen::Vector3d(0.3, -0.2, 0.1) * kDeg,
+                                                  Eigen::Vector3d(0.01, -0.005, 0.008));
+    }
+    problem.anchor_frame_id = 0;
+    DepthAlignmentOptions options;
+    options.num_threads = 2;
+    ASSERT_EQ(options.sample_step, 2 * options.dense_sample_step);
+    DepthAlignmentStats stats;
+    const BundleAdjustmentResult result = SolveWithDepthAlignment(
+        problem, range.camera, clouds, BundleAdjustmentOptions(), options, &stats);
+    ASSERT_TRUE(result.usable) << result.termination;
+    EXPECT_GE(stats.constraints, 20);
+    if (correlated) {
+      EXPECT_GT(stats.variance_factor, 10.0);
+      EXPECT_EQ(stats.sample_step, options.sample_step);
+    } else {
+      EXPECT_LT(stats.variance_factor, 2.0);
+      EXPECT_EQ(stats.sample_step, options.dense_sample_step);
+      EXPECT_EQ(stats.rounds, options.rounds);
+    }
+  }
+}
+
 // The clouds are in the range imager's frame, the poses the colour camera's: with the
 // imager 2.5 cm and 3 deg off the camera the refinement still places the camera poses.
 TEST(DepthAlignmentTest, RangeImagerOffTheColourCameraIsAccountedFor) {
