@@ -4,14 +4,16 @@
 // The pose is held as a unit quaternion q_w_c (Eigen's x, y, z, w storage, the layout
 // ceres::EigenQuaternionManifold expects) and a translation t_w_c, camera-to-world, so that
 // the optimiser never meets the Euler singularity the filter's 6-vector has at beta = +-90 deg.
-// Jacobians come from ceres::AutoDiffCostFunction; tests/backend/bundle_adjustment_test.cc
-// checks them with ceres::GradientChecker.
+// UvdResidual's Jacobians are in closed form, RelativePoseResidual's from
+// ceres::AutoDiffCostFunction; tests/backend/bundle_adjustment_test.cc checks both with
+// ceres::GradientChecker, and the closed form against automatic differentiation.
 #pragma once
 
 #include <string>
 
 #include <ceres/autodiff_cost_function.h>
 #include <ceres/rotation.h>
+#include <ceres/sized_cost_function.h>
 #include <Eigen/Cholesky>
 #include <Eigen/Core>
 #include <Eigen/Geometry>
@@ -69,12 +71,55 @@ class UvdResidual {
     return true;
   }
 
+  // The residual, as operator(), and where the pointers are not null its Jacobians
+  // (row-major 3x4, 3x3, 3x3) in closed form: what automatic differentiation of operator()
+  // gives, to rounding, for a fraction of the cost (evaluating them was the largest part of
+  // the bundle adjustment's time). With q^ = q / |q| and d = p_w - t_w_c,
+  // p_c = R(q^)^T d = (w^2 - u.u) d + 2 u (u.d) - 2 w (u x d) for q^ = (u, w), so
+  // d p_c / d u = 2 ((u.d) I + u d^T - d u^T + w [d]x) and d p_c / d w = 2 (w d - u x d),
+  // times d q^ / d q = (I - q^ q^^T) / |q|.
+  bool Evaluate(const double* q_w_c, const double* t_w_c, const double* p_w, double* residual,
+                double* d_q, double* d_t, double* d_p) const {
+    if (!(*this)(q_w_c, t_w_c, p_w, residual)) return false;
+    if (d_q == nullptr && d_t == nullptr && d_p == nullptr) return true;
+    const Eigen::Map<const Eigen::Vector4d> q(q_w_c);
+    const double norm = q.norm();
+    const Eigen::Vector4d q_unit = q / norm;
+    const Eigen::Vector3d u = q_unit.head<3>();
+    const double w = q_unit[3];
+    const Eigen::Matrix3d R_c_w = Eigen::Quaterniond(q_unit[3], q_unit[0], q_unit[1], q_unit[2])
+                                      .toRotationMatrix()
+                                      .transpose();
+    const Eigen::Vector3d d =
+        Eigen::Map<const Eigen::Vector3d>(p_w) - Eigen::Map<const Eigen::Vector3d>(t_w_c);
+    const Eigen::Vector3d p_c = R_c_w * d;
+    const double inv_z = 1.0 / p_c.z(), range = p_c.norm();
+    Eigen::Matrix3d d_error_d_p_c;
+    d_error_d_p_c << fx_ * inv_z, 0.0, -fx_ * p_c.x() * inv_z * inv_z,  //
+        0.0, fy_ * inv_z, -fy_ * p_c.y() * inv_z * inv_z,               //
+        p_c.transpose() / range;
+    const Eigen::Matrix3d A = W_ * d_error_d_p_c;
+    using RowMajor33Map = Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>;
+    if (d_p != nullptr) RowMajor33Map{d_p} = A * R_c_w;
+    if (d_t != nullptr) RowMajor33Map{d_t} = -A * R_c_w;
+    if (d_q != nullptr) {
+      Eigen::Matrix<double, 3, 4> d_p_c_d_q_unit;
+      Eigen::Matrix3d d_cross;
+      d_cross << 0.0, -d.z(), d.y(), d.z(), 0.0, -d.x(), -d.y(), d.x(), 0.0;
+      d_p_c_d_q_unit.leftCols<3>() = 2.0 * (u.dot(d) * Eigen::Matrix3d::Identity() +
+                                            u * d.transpose() - d * u.transpose() + w * d_cross);
+      d_p_c_d_q_unit.col(3) = 2.0 * (w * d - u.cross(d));
+      const Eigen::Matrix4d normalize =
+          (Eigen::Matrix4d::Identity() - q_unit * q_unit.transpose()) / norm;
+      Eigen::Map<Eigen::Matrix<double, 3, 4, Eigen::RowMajor>>{d_q} =
+          A * d_p_c_d_q_unit * normalize;
+    }
+    return true;
+  }
+
   // Parameter blocks: q_w_c (4), t_w_c (3), p_w (3).
   static ceres::CostFunction* Create(const PinholeCamera& camera, const Eigen::Vector3d& z,
-                                     const Eigen::Matrix3d& sqrt_information, double min_depth_m) {
-    return new ceres::AutoDiffCostFunction<UvdResidual, 3, 4, 3, 3>(
-        new UvdResidual(camera, z, sqrt_information, min_depth_m));
-  }
+                                     const Eigen::Matrix3d& sqrt_information, double min_depth_m);
 
  private:
   double fx_, fy_, cx_, cy_;
@@ -82,6 +127,29 @@ class UvdResidual {
   Eigen::Matrix3d W_;
   double min_depth_m_;
 };
+
+// UvdResidual's cost function for Ceres, with its closed-form Jacobians.
+class UvdCostFunction final : public ceres::SizedCostFunction<3, 4, 3, 3> {
+ public:
+  explicit UvdCostFunction(const UvdResidual& residual) : residual_(residual) {}
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override {
+    return residual_.Evaluate(parameters[0], parameters[1], parameters[2], residuals,
+                              jacobians != nullptr ? jacobians[0] : nullptr,
+                              jacobians != nullptr ? jacobians[1] : nullptr,
+                              jacobians != nullptr ? jacobians[2] : nullptr);
+  }
+
+ private:
+  UvdResidual residual_;
+};
+
+inline ceres::CostFunction* UvdResidual::Create(const PinholeCamera& camera,
+                                                const Eigen::Vector3d& z,
+                                                const Eigen::Matrix3d& sqrt_information,
+                                                double min_depth_m) {
+  return new UvdCostFunction(UvdResidual(camera, z, sqrt_information, min_depth_m));
+}
 
 // r = S (Log(R_E), t_E) for E = Y T_sj_si^-1 and Y = (T_w_cj T_c_s)^-1 T_w_ci T_c_s, the
 // residual of a RelativePoseConstraint (backend/bundle_adjustment.h): zero where the poses

@@ -129,6 +129,57 @@ TEST(BundleAdjustmentTest, ResidualMatchesTheFilterModelAndPassesGradientChecker
   }
 }
 
+// The closed-form Jacobians are automatic differentiation's, to rounding, on and off the
+// unit sphere (Ceres' quaternion steps leave it by rounding), in every block.
+TEST(BundleAdjustmentTest, ResidualJacobiansInClosedFormAreAutomaticDifferentiations) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  const PinholeCamera camera = testing_ba::TestCamera();
+  for (int trial = 0; trial < 20; ++trial) {
+    Vector6d pose;
+    pose << 3 * unit(rng), 3 * unit(rng), 3 * unit(rng), M_PI * unit(rng), 1.5 * unit(rng),
+        M_PI * unit(rng);
+    const Eigen::Isometry3d T = PoseToIsometry(pose);
+    const Eigen::Vector3d p_c(unit(rng), unit(rng), 2.5 + 1.5 * unit(rng));
+    Eigen::Vector3d p_w = T * p_c;
+    const Eigen::Vector3d z(300 + 50 * unit(rng), 200 + 50 * unit(rng), p_c.norm() + 0.1);
+    Eigen::Matrix3d W;
+    ASSERT_TRUE(SqrtInformation(RandomSpdQ(&rng), &W));
+    Eigen::Vector4d q = Eigen::Quaterniond(T.linear()).coeffs() * (trial % 2 == 0 ? 1.0 : 1.3);
+    Eigen::Vector3d t = T.translation();
+    const double* parameters[] = {q.data(), t.data(), p_w.data()};
+
+    std::unique_ptr<ceres::CostFunction> closed(UvdResidual::Create(camera, z, W, 1e-3));
+    ceres::AutoDiffCostFunction<UvdResidual, 3, 4, 3, 3> automatic(
+        new UvdResidual(camera, z, W, 1e-3));
+    Eigen::Vector3d r_closed, r_automatic;
+    Eigen::Matrix<double, 3, 4, Eigen::RowMajor> q_closed, q_automatic;
+    Eigen::Matrix<double, 3, 3, Eigen::RowMajor> t_closed, t_automatic, p_closed, p_automatic;
+    double* j_closed[] = {q_closed.data(), t_closed.data(), p_closed.data()};
+    double* j_automatic[] = {q_automatic.data(), t_automatic.data(), p_automatic.data()};
+    ASSERT_TRUE(closed->Evaluate(parameters, r_closed.data(), j_closed));
+    ASSERT_TRUE(automatic.Evaluate(parameters, r_automatic.data(), j_automatic));
+    EXPECT_LT((r_closed - r_automatic).norm(), 1e-12 * r_automatic.norm()) << trial;
+    EXPECT_LT((q_closed - q_automatic).norm(), 1e-12 * q_automatic.norm()) << trial;
+    EXPECT_LT((t_closed - t_automatic).norm(), 1e-12 * t_automatic.norm()) << trial;
+    EXPECT_LT((p_closed - p_automatic).norm(), 1e-12 * p_automatic.norm()) << trial;
+    // Only some blocks asked for, as Ceres does for constant parameter blocks.
+    Eigen::Vector3d r_partial;
+    double* j_partial[] = {nullptr, t_closed.data(), nullptr};
+    ASSERT_TRUE(closed->Evaluate(parameters, r_partial.data(), j_partial));
+    EXPECT_EQ(r_partial, r_closed);
+    EXPECT_LT((t_closed - t_automatic).norm(), 1e-12 * t_automatic.norm()) << trial;
+  }
+  // Behind the camera there is no residual, as before.
+  std::unique_ptr<ceres::CostFunction> closed(
+      UvdResidual::Create(camera, Eigen::Vector3d(300, 200, 2), Eigen::Matrix3d::Identity(), 1e-3));
+  const Eigen::Vector4d q(0, 0, 0, 1);
+  const Eigen::Vector3d t(0, 0, 0), behind(0.1, 0.2, -1.0);
+  const double* parameters[] = {q.data(), t.data(), behind.data()};
+  Eigen::Vector3d r;
+  EXPECT_FALSE(closed->Evaluate(parameters, r.data(), nullptr));
+}
+
 // The relative-pose residual is S (omega, v) where the poses say Y = [Exp(omega), v] T_sj_si,
 // through a sensor offset T_c_s, and its autodiff Jacobians pass the gradient checker.
 TEST(BundleAdjustmentTest, RelativePoseResidualIsTheChartOfTheMeasurementAndPassesGradientChecker) {
