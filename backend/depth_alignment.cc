@@ -258,22 +258,24 @@ PairAlignment AlignRangeClouds(const RangeCloud& source, const RangeCloud& targe
   struct Phase {
     const std::vector<int>* samples;
     double gate_m;
-    int min_correspondences;  // the same share of the phase's samples
+    int min_correspondences;  // the same share of the phase's samples, and 6 for a pose
   };
   const double coarse_share =
       samples.empty() ? 0.0 : static_cast<double>(coarse.size()) / samples.size();
   const Phase phases[2] = {
       {&coarse, options.initial_gate_m,
-       static_cast<int>(std::ceil(options.min_correspondences * coarse_share))},
+       std::max(6, static_cast<int>(std::ceil(options.min_correspondences * coarse_share)))},
       {&samples, options.final_gate_m, options.min_correspondences}};
-  int phase = 0;
+  // A cloud too sparse for the coarse phase starts at the fine one.
+  int phase = static_cast<int>(coarse.size()) < phases[0].min_correspondences ? 1 : 0;
   Eigen::Isometry3d Y = T_t_s_initial;
   bool converged = false;
   // Converged once a step is below a tenth of a millimetre (and of a milliradian, a tenth of
   // a millimetre at 1 m), an order of magnitude under any point's range noise: the gates
   // switch single points in and out near the optimum and keep steps of ~1e-5 going forever.
   constexpr double kConverged = 1e-4;
-  NormalEquations eq = Associate(source, target, coarse, Y, phases[0].gate_m, options);
+  NormalEquations eq =
+      Associate(source, target, *phases[phase].samples, Y, phases[phase].gate_m, options);
   for (int it = 0; it < options.max_iterations && !converged; ++it) {
     const Phase& current = phases[phase];
     if (eq.count < current.min_correspondences) {
@@ -412,13 +414,15 @@ BundleAdjustmentResult SolveWithDepthAlignment(BundleAdjustmentProblem problem,
   // understates their noise, so a later round's larger factor is the better one.
   double variance_factor = 1.0;
   // The first round samples the clouds at options.sample_step. Where the constraints then
-  // prove no more precise than they state (a variance factor below kIndependentFactor: the
-  // sampled points' errors are independent, as the information assumes), denser points add
-  // information in proportion, and the next rounds halve the step, down to
-  // dense_sample_step. Where the factor is larger, the errors are correlated over more than
-  // the sample spacing, and denser points would only add time and stated information that
-  // the factor takes back.
+  // prove about as precise as they state (a variance factor below kIndependentFactor,
+  // measured on at least kMinConstraints of them: the points' errors are independent at
+  // least at this spacing), denser points may add information, and the next rounds halve the
+  // step, down to dense_sample_step; each round measures its own factor, so any correlation
+  // at the finer spacing is weighed out there. Where the factor is larger, the errors are
+  // correlated over more than the sample spacing, and denser points would only add time and
+  // stated information that the factor takes back.
   constexpr double kIndependentFactor = 2.0;
+  constexpr int kMinConstraints = 10;  // the median of fewer says little
   DepthAlignmentOptions round_options = options;
   const auto stand = [&](BundleAdjustmentResult&& solved) {
     s->variance_factor = variance_factor * solved.relative_pose_variance_factor;
@@ -460,7 +464,9 @@ BundleAdjustmentResult SolveWithDepthAlignment(BundleAdjustmentProblem problem,
     }
     problem.T_w_c = result.T_w_c;
     problem.p_w = result.p_w;
-    const bool denser = ba_options.weigh_relative_poses && variance_factor < kIndependentFactor &&
+    const int measured = s->constraints - result.rejected_relative_poses;
+    const bool denser = ba_options.weigh_relative_poses && measured >= kMinConstraints &&
+                        variance_factor < kIndependentFactor &&
                         round_options.sample_step > options.dense_sample_step;
     if (denser) {
       round_options.sample_step =

@@ -29,12 +29,13 @@ struct DepthAlignmentOptions {
   // RangeCloudOptions::step 4, one point per 16 range pixels. The information counts the
   // points as independent, but a Kinect's range errors are correlated over much more than
   // that: the constraints' variance factor (BundleAdjustmentOptions::weigh_relative_poses)
-  // is 30-500 at one point per 8 pixels and a quarter of that at one per 16, so there more
-  // points add time and stated information, which the factor takes back, and little else.
+  // is 30-500 at one point per 8 pixels and a third to a quarter of that at one per 16, so
+  // there more points add time and stated information, which the factor takes back, and
+  // little else. The screen for overlapping pairs uses every other sample of this step.
   int sample_step = 4;
   // Later rounds halve the step down to this one where the first rounds' constraints prove
   // as precise as they state (SolveWithDepthAlignment): the points' errors independent, as on
-  // a sensor that fits its noise model.
+  // a sensor that fits its noise model. Equal to sample_step: one step for every round.
   int dense_sample_step = 2;
   int max_iterations = 30;
   // Association gates on the point-to-point distance. The first phase allows for the error

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <iterator>
+#include <limits>
 #include <memory>
 #include <random>
 
@@ -163,12 +164,22 @@ TEST(BundleAdjustmentTest, ResidualJacobiansInClosedFormAreAutomaticDifferentiat
     EXPECT_LT((q_closed - q_automatic).norm(), 1e-12 * q_automatic.norm()) << trial;
     EXPECT_LT((t_closed - t_automatic).norm(), 1e-12 * t_automatic.norm()) << trial;
     EXPECT_LT((p_closed - p_automatic).norm(), 1e-12 * p_automatic.norm()) << trial;
-    // Only some blocks asked for, as Ceres does for constant parameter blocks.
-    Eigen::Vector3d r_partial;
-    double* j_partial[] = {nullptr, t_closed.data(), nullptr};
-    ASSERT_TRUE(closed->Evaluate(parameters, r_partial.data(), j_partial));
-    EXPECT_EQ(r_partial, r_closed);
-    EXPECT_LT((t_closed - t_automatic).norm(), 1e-12 * t_automatic.norm()) << trial;
+    // One block at a time, as Ceres asks when the others are constant.
+    for (int block = 0; block < 3; ++block) {
+      const double nan = std::numeric_limits<double>::quiet_NaN();
+      q_closed.setConstant(nan);
+      t_closed.setConstant(nan);
+      p_closed.setConstant(nan);
+      double* j_partial[] = {nullptr, nullptr, nullptr};
+      j_partial[block] = j_closed[block];
+      Eigen::Vector3d r_partial;
+      ASSERT_TRUE(closed->Evaluate(parameters, r_partial.data(), j_partial));
+      EXPECT_EQ(r_partial, r_closed);
+      const double error = block == 0   ? (q_closed - q_automatic).norm() / q_automatic.norm()
+                           : block == 1 ? (t_closed - t_automatic).norm() / t_automatic.norm()
+                                        : (p_closed - p_automatic).norm() / p_automatic.norm();
+      EXPECT_LT(error, 1e-12) << trial << ", block " << block;
+    }
   }
   // Behind the camera there is no residual, as before.
   std::unique_ptr<ceres::CostFunction> closed(
