@@ -71,8 +71,9 @@ class UvdResidual {
     return true;
   }
 
-  // The residual, as operator(), and where the pointers are not null its Jacobians
-  // (row-major 3x4, 3x3, 3x3) in closed form: what automatic differentiation of operator()
+  // The residual, through operator() (so that it has the same bits whether or not Ceres asks
+  // for Jacobians), and where the pointers are not null its Jacobians (row-major 3x4, 3x3,
+  // 3x3) in closed form: what automatic differentiation of operator()
   // gives, to rounding, for a fraction of the cost (evaluating them was the largest part of
   // the bundle adjustment's time). With q^ = q / |q| and d = p_w - t_w_c,
   // p_c = R(q^)^T d = (w^2 - u.u) d + 2 u (u.d) - 2 w (u x d) for q^ = (u, w), so

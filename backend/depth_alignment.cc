@@ -193,6 +193,76 @@ std::vector<char> SpreadPartners(const std::vector<std::pair<size_t, size_t>>& a
   return keep;
 }
 
+// One Gauss-Newton step with backtracking at *Y: the full step, else halves of it, the first
+// that lowers the cost moves *Y and *eq to it (true); none does at a minimum of the cost as
+// the gates cut it (false). *step is the last step tried.
+bool BacktrackingStep(const RangeCloud& source, const RangeCloud& target,
+                      const std::vector<int>& samples, double gate_m,
+                      const DepthAlignmentOptions& options, Eigen::Isometry3d* Y,
+                      NormalEquations* eq, Vector6d* step) {
+  *step = GaussNewtonStep(*eq);
+  for (int halving = 0; halving < 4; ++halving) {
+    const Eigen::Isometry3d Y_next = Increment(*step) * *Y;
+    NormalEquations next = Associate(source, target, samples, Y_next, gate_m, options);
+    if (next.cost < eq->cost) {
+      *Y = Y_next;
+      *eq = std::move(next);
+      return true;
+    }
+    *step *= 0.5;
+  }
+  return false;
+}
+
+// A converged alignment's information, overlap and spread from its final normal equations
+// over `samples` source points, and whether it counts (DepthAlignmentOptions).
+void Judge(const NormalEquations& eq, size_t samples, const DepthAlignmentOptions& options,
+           PairAlignment* result) {
+  result->information = 0.5 * (eq.H + eq.H.transpose());
+  result->correspondences = eq.count;
+  result->overlap = samples == 0 ? 0.0 : static_cast<double>(eq.count) / samples;
+  result->robust_sigma = RobustSigma(eq.abs_whitened);
+  if (eq.count < options.min_correspondences || result->overlap < options.min_overlap) {
+    result->why_not = "overlap " + std::to_string(result->overlap) + " too small";
+  } else if (result->robust_sigma > options.max_robust_sigma) {
+    result->why_not = "surfaces apart (robust sigma " + std::to_string(result->robust_sigma) + ")";
+  } else {
+    result->usable = true;
+  }
+}
+
+// The largest change of any pose from `before` to `after` (frames of `after`): translation
+// in metres or rotation in radians, whichever is larger.
+double LargestPoseChange(const std::map<int, Eigen::Isometry3d>& before,
+                         const std::map<int, Eigen::Isometry3d>& after) {
+  double change = 0.0;
+  for (const auto& [frame, T] : after) {
+    const Eigen::Isometry3d D = before.at(frame).inverse() * T;
+    change = std::max({change, D.translation().norm(), Eigen::AngleAxisd(D.linear()).angle()});
+  }
+  return change;
+}
+
+// The sample step of the round after one at `step` whose solve is `solved`, with the
+// constraints' variance factor so far `variance_factor`. Where the constraints prove about
+// as precise as they state (a factor below kIndependentFactor, measured on at least
+// kMinConstraints of them: the points' errors are independent at least at this spacing),
+// denser points may add information, and the step halves, down to dense_sample_step; each
+// round measures its own factor, so any correlation at the finer spacing is weighed out
+// there. Where the factor is larger, the errors are correlated over more than the sample
+// spacing, and denser points would only add time and stated information that the factor
+// takes back.
+int NextSampleStep(int step, double variance_factor, int constraints,
+                   const BundleAdjustmentResult& solved, const BundleAdjustmentOptions& ba_options,
+                   const DepthAlignmentOptions& options) {
+  constexpr double kIndependentFactor = 2.0;
+  constexpr int kMinConstraints = 10;  // the median of fewer says little
+  const int measured = constraints - solved.rejected_relative_poses;
+  const bool denser = ba_options.weigh_relative_poses && measured >= kMinConstraints &&
+                      variance_factor < kIndependentFactor && step > options.dense_sample_step;
+  return denser ? std::max(options.dense_sample_step, step / 2) : step;
+}
+
 }  // namespace
 
 const OptionTable<DepthAlignmentOptions>& DepthAlignmentOptions::Table() {
@@ -283,22 +353,9 @@ PairAlignment AlignRangeClouds(const RangeCloud& source, const RangeCloud& targe
                        std::to_string(current.samples->size()) + ")";
       return result;
     }
-    // Gauss-Newton with backtracking: the full step, else halves of it, the first that
-    // lowers the cost; none does at a minimum of the cost as the gates cut it.
-    Vector6d step = GaussNewtonStep(eq);
-    bool moved = false;
-    for (int halving = 0; halving < 4; ++halving) {
-      const Eigen::Isometry3d Y_next = Increment(step) * Y;
-      NormalEquations next =
-          Associate(source, target, *current.samples, Y_next, current.gate_m, options);
-      if (next.cost < eq.cost) {
-        Y = Y_next;
-        eq = std::move(next);
-        moved = true;
-        break;
-      }
-      step *= 0.5;
-    }
+    Vector6d step;
+    const bool moved =
+        BacktrackingStep(source, target, *current.samples, current.gate_m, options, &Y, &eq, &step);
     ++result.iterations;
     if (!moved || (step.head<3>().norm() < kConverged && step.tail<3>().norm() < kConverged)) {
       if (phase == 1) {
@@ -314,17 +371,7 @@ PairAlignment AlignRangeClouds(const RangeCloud& source, const RangeCloud& targe
     return result;
   }
   result.T_t_s = Y;
-  result.information = 0.5 * (eq.H + eq.H.transpose());
-  result.correspondences = eq.count;
-  result.overlap = samples.empty() ? 0.0 : static_cast<double>(eq.count) / samples.size();
-  result.robust_sigma = RobustSigma(eq.abs_whitened);
-  if (eq.count < options.min_correspondences || result.overlap < options.min_overlap) {
-    result.why_not = "overlap " + std::to_string(result.overlap) + " too small";
-  } else if (result.robust_sigma > options.max_robust_sigma) {
-    result.why_not = "surfaces apart (robust sigma " + std::to_string(result.robust_sigma) + ")";
-  } else {
-    result.usable = true;
-  }
+  Judge(eq, samples.size(), options, &result);
   return result;
 }
 
@@ -413,16 +460,8 @@ BundleAdjustmentResult SolveWithDepthAlignment(BundleAdjustmentProblem problem,
   // measured at a solution the constraints dominate, the median of their residuals
   // understates their noise, so a later round's larger factor is the better one.
   double variance_factor = 1.0;
-  // The first round samples the clouds at options.sample_step. Where the constraints then
-  // prove about as precise as they state (a variance factor below kIndependentFactor,
-  // measured on at least kMinConstraints of them: the points' errors are independent at
-  // least at this spacing), denser points may add information, and the next rounds halve the
-  // step, down to dense_sample_step; each round measures its own factor, so any correlation
-  // at the finer spacing is weighed out there. Where the factor is larger, the errors are
-  // correlated over more than the sample spacing, and denser points would only add time and
-  // stated information that the factor takes back.
-  constexpr double kIndependentFactor = 2.0;
-  constexpr int kMinConstraints = 10;  // the median of fewer says little
+  // The first round samples the clouds at options.sample_step, later ones as NextSampleStep
+  // finds; a round that samples more densely than the last is not skipped for convergence.
   DepthAlignmentOptions round_options = options;
   const auto stand = [&](BundleAdjustmentResult&& solved) {
     s->variance_factor = variance_factor * solved.relative_pose_variance_factor;
@@ -457,20 +496,13 @@ BundleAdjustmentResult SolveWithDepthAlignment(BundleAdjustmentProblem problem,
     }
     stand(std::move(solved));
     variance_factor = s->variance_factor;
-    double change = 0.0;
-    for (const auto& [frame, T] : result.T_w_c) {
-      const Eigen::Isometry3d D = problem.T_w_c.at(frame).inverse() * T;
-      change = std::max({change, D.translation().norm(), Eigen::AngleAxisd(D.linear()).angle()});
-    }
+    const double change = LargestPoseChange(problem.T_w_c, result.T_w_c);
     problem.T_w_c = result.T_w_c;
     problem.p_w = result.p_w;
-    const int measured = s->constraints - result.rejected_relative_poses;
-    const bool denser = ba_options.weigh_relative_poses && measured >= kMinConstraints &&
-                        variance_factor < kIndependentFactor &&
-                        round_options.sample_step > options.dense_sample_step;
-    if (denser) {
-      round_options.sample_step =
-          std::max(options.dense_sample_step, round_options.sample_step / 2);
+    const int next_step = NextSampleStep(round_options.sample_step, variance_factor, s->constraints,
+                                         result, ba_options, options);
+    if (next_step != round_options.sample_step) {
+      round_options.sample_step = next_step;
     } else if (change < options.convergence_m) {
       break;
     }
