@@ -4,14 +4,13 @@
 // The pose is held as a unit quaternion q_w_c (Eigen's x, y, z, w storage, the layout
 // ceres::EigenQuaternionManifold expects) and a translation t_w_c, camera-to-world, so that
 // the optimiser never meets the Euler singularity the filter's 6-vector has at beta = +-90 deg.
-// UvdResidual's Jacobians are in closed form, RelativePoseResidual's from
-// ceres::AutoDiffCostFunction; tests/backend/bundle_adjustment_test.cc checks both with
-// ceres::GradientChecker, and the closed form against automatic differentiation.
+// Both residuals' Jacobians are in closed form; tests/backend/bundle_adjustment_test.cc
+// checks them with ceres::GradientChecker and against ceres::AutoDiffCostFunction of the
+// templated operator().
 #pragma once
 
 #include <string>
 
-#include <ceres/autodiff_cost_function.h>
 #include <ceres/rotation.h>
 #include <ceres/sized_cost_function.h>
 #include <Eigen/Cholesky>
@@ -152,6 +151,43 @@ inline ceres::CostFunction* UvdResidual::Create(const PinholeCamera& camera,
   return new UvdCostFunction(UvdResidual(camera, z, sqrt_information, min_depth_m));
 }
 
+namespace ba_internal {
+
+inline Eigen::Matrix3d Skew(const Eigen::Vector3d& v) {
+  Eigen::Matrix3d m;
+  m << 0.0, -v.z(), v.y(), v.z(), 0.0, -v.x(), -v.y(), v.x(), 0.0;
+  return m;
+}
+
+// d theta / d q (3 x 4, Eigen's x, y, z, w order): to first order R(q' / |q'|) =
+// Exp(theta) R(q / |q|) for q' = q + dq, theta in the world frame. With q^ = q / |q| =
+// (u, w): theta = 2 (w du - u dw + u x du) for a step dq^ on the sphere, and
+// dq^ = (I - q^ q^^T) dq / |q|.
+inline Eigen::Matrix<double, 3, 4> WorldRotationOfQuaternionStep(const double* q_ptr) {
+  const Eigen::Map<const Eigen::Vector4d> q(q_ptr);
+  const double norm = q.norm();
+  const Eigen::Vector4d q_unit = q / norm;
+  const Eigen::Vector3d u = q_unit.head<3>();
+  Eigen::Matrix<double, 3, 4> d_theta_d_q_unit;
+  d_theta_d_q_unit.leftCols<3>() = 2.0 * (q_unit[3] * Eigen::Matrix3d::Identity() + Skew(u));
+  d_theta_d_q_unit.col(3) = -2.0 * u;
+  return d_theta_d_q_unit * ((Eigen::Matrix4d::Identity() - q_unit * q_unit.transpose()) / norm);
+}
+
+// The inverse of SO(3)'s left Jacobian at phi: Log(Exp(a) Exp(phi)) = phi + J_l(phi)^-1 a to
+// first order in a.
+inline Eigen::Matrix3d InverseLeftJacobian(const Eigen::Vector3d& phi) {
+  const double angle = phi.norm();
+  const Eigen::Matrix3d K = Skew(phi);
+  // 1 / a^2 - (1 + cos a) / (2 a sin a), by its series below 1e-4 rad (1/12 + a^2 / 720).
+  const double c = angle < 1e-4 ? 1.0 / 12.0 + angle * angle / 720.0
+                                : 1.0 / (angle * angle) -
+                                      (1.0 + std::cos(angle)) / (2.0 * angle * std::sin(angle));
+  return Eigen::Matrix3d::Identity() - 0.5 * K + c * K * K;
+}
+
+}  // namespace ba_internal
+
 // r = S (Log(R_E), t_E) for E = Y T_sj_si^-1 and Y = (T_w_cj T_c_s)^-1 T_w_ci T_c_s, the
 // residual of a RelativePoseConstraint (backend/bundle_adjustment.h): zero where the poses
 // agree with the measured relative pose, and (omega, v) where they differ from it by
@@ -193,13 +229,56 @@ class RelativePoseResidual {
     return true;
   }
 
+  // The residual, as operator(), and where the pointers are not null its Jacobians
+  // (row-major 6x4, 6x3, 6x4, 6x3) in closed form. A world-frame rotation theta of camera i
+  // turns R_y into Exp(R_w_sj^T theta) R_y, of camera j into Exp(-R_w_sj^T theta) R_y;
+  // Log(R_E) then moves by J_l(Log R_E)^-1 times that, and t_E = t_y - R_E t^ by the
+  // rotation of R_E t^ and the lever arms of the sensors' offsets.
+  bool Evaluate(const double* q_w_ci, const double* t_w_ci, const double* q_w_cj,
+                const double* t_w_cj, double* residual, double* d_q_i, double* d_t_i, double* d_q_j,
+                double* d_t_j) const {
+    using ba_internal::Skew;
+    if (!(*this)(q_w_ci, t_w_ci, q_w_cj, t_w_cj, residual)) return false;
+    if (d_q_i == nullptr && d_t_i == nullptr && d_q_j == nullptr && d_t_j == nullptr) {
+      return true;
+    }
+    const auto rotation = [](const double* q) {
+      return Eigen::Quaterniond(q[3], q[0], q[1], q[2]).normalized().toRotationMatrix();
+    };
+    const Eigen::Matrix3d R_w_ci = rotation(q_w_ci), R_w_cj = rotation(q_w_cj);
+    const Eigen::Vector3d arm_i = R_w_ci * t_c_s_;
+    const Eigen::Vector3d t_w_si = arm_i + Eigen::Map<const Eigen::Vector3d>(t_w_ci);
+    const Eigen::Matrix3d R_sj_w = (R_w_cj * R_c_s_).transpose();
+    const Eigen::Matrix3d R_e = R_sj_w * R_w_ci * R_c_s_ * R_hat_.transpose();
+    const Eigen::AngleAxisd angle_axis(R_e);
+    const Eigen::Vector3d phi = angle_axis.angle() * angle_axis.axis();
+    const Eigen::Matrix3d rotation_part = ba_internal::InverseLeftJacobian(phi) * R_sj_w;
+    const Eigen::Matrix3d turn = Skew(R_e * t_hat_) * R_sj_w;
+    Eigen::Matrix<double, 6, 3> d_e_d_theta_i, d_e_d_theta_j, d_e_d_t_i, d_e_d_t_j;
+    d_e_d_theta_i << rotation_part, turn - R_sj_w * Skew(arm_i);
+    d_e_d_theta_j << -rotation_part,
+        R_sj_w * Skew(t_w_si - Eigen::Map<const Eigen::Vector3d>(t_w_cj)) - turn;
+    d_e_d_t_i << Eigen::Matrix3d::Zero(), R_sj_w;
+    d_e_d_t_j << Eigen::Matrix3d::Zero(), -R_sj_w;
+    using RowMajor64 = Eigen::Matrix<double, 6, 4, Eigen::RowMajor>;
+    using RowMajor63 = Eigen::Matrix<double, 6, 3, Eigen::RowMajor>;
+    if (d_q_i != nullptr) {
+      Eigen::Map<RowMajor64>{d_q_i} =
+          S_ * d_e_d_theta_i * ba_internal::WorldRotationOfQuaternionStep(q_w_ci);
+    }
+    if (d_q_j != nullptr) {
+      Eigen::Map<RowMajor64>{d_q_j} =
+          S_ * d_e_d_theta_j * ba_internal::WorldRotationOfQuaternionStep(q_w_cj);
+    }
+    if (d_t_i != nullptr) Eigen::Map<RowMajor63>{d_t_i} = S_ * d_e_d_t_i;
+    if (d_t_j != nullptr) Eigen::Map<RowMajor63>{d_t_j} = S_ * d_e_d_t_j;
+    return true;
+  }
+
   // Parameter blocks: q_w_ci (4), t_w_ci (3), q_w_cj (4), t_w_cj (3).
   static ceres::CostFunction* Create(const Eigen::Isometry3d& T_sj_si,
                                      const Eigen::Isometry3d& T_c_s,
-                                     const Matrix6d& sqrt_information) {
-    return new ceres::AutoDiffCostFunction<RelativePoseResidual, 6, 4, 3, 4, 3>(
-        new RelativePoseResidual(T_sj_si, T_c_s, sqrt_information));
-  }
+                                     const Matrix6d& sqrt_information);
 
  private:
   Eigen::Matrix3d R_hat_;
@@ -208,5 +287,26 @@ class RelativePoseResidual {
   Eigen::Vector3d t_c_s_;
   Matrix6d S_;
 };
+
+// RelativePoseResidual's cost function for Ceres, with its closed-form Jacobians.
+class RelativePoseCostFunction final : public ceres::SizedCostFunction<6, 4, 3, 4, 3> {
+ public:
+  explicit RelativePoseCostFunction(const RelativePoseResidual& residual) : residual_(residual) {}
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override {
+    const auto block = [jacobians](int k) { return jacobians != nullptr ? jacobians[k] : nullptr; };
+    return residual_.Evaluate(parameters[0], parameters[1], parameters[2], parameters[3], residuals,
+                              block(0), block(1), block(2), block(3));
+  }
+
+ private:
+  RelativePoseResidual residual_;
+};
+
+inline ceres::CostFunction* RelativePoseResidual::Create(const Eigen::Isometry3d& T_sj_si,
+                                                         const Eigen::Isometry3d& T_c_s,
+                                                         const Matrix6d& sqrt_information) {
+  return new RelativePoseCostFunction(RelativePoseResidual(T_sj_si, T_c_s, sqrt_information));
+}
 
 }  // namespace ieslam

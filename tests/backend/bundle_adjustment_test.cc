@@ -7,6 +7,7 @@
 #include <memory>
 #include <random>
 
+#include <ceres/autodiff_cost_function.h>
 #include <ceres/gradient_checker.h>
 #include <ceres/manifold.h>
 #include <gtest/gtest.h>
@@ -189,6 +190,63 @@ TEST(BundleAdjustmentTest, ResidualJacobiansInClosedFormAreAutomaticDifferentiat
   const double* parameters[] = {q.data(), t.data(), behind.data()};
   Eigen::Vector3d r;
   EXPECT_FALSE(closed->Evaluate(parameters, r.data(), nullptr));
+}
+
+// The relative-pose residual's closed-form Jacobians are automatic differentiation's, to
+// rounding, for misfits from zero to large, on and off the unit sphere, in every block.
+TEST(BundleAdjustmentTest, RelativePoseJacobiansInClosedFormAreAutomaticDifferentiations) {
+  std::mt19937 rng(8);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  const auto random_pose = [&](double scale, double angle) {
+    Vector6d pose;
+    pose << scale * unit(rng), scale * unit(rng), scale * unit(rng), angle * unit(rng),
+        0.5 * angle * unit(rng), angle * unit(rng);
+    return PoseToIsometry(pose);
+  };
+  for (int trial = 0; trial < 20; ++trial) {
+    const Eigen::Isometry3d T_w_ci = random_pose(2.0, M_PI), T_w_cj = random_pose(2.0, M_PI);
+    const Eigen::Isometry3d T_c_s = random_pose(0.05, 0.1);
+    // The measurement: the poses' own relative pose (misfit 0), or off by up to 0.3 rad.
+    const double misfit = trial < 2 ? 0.0 : 0.3 * (trial % 5) / 4.0;
+    const Eigen::Isometry3d T_sj_si =
+        random_pose(0.1, misfit) * (T_w_cj * T_c_s).inverse() * (T_w_ci * T_c_s);
+    Matrix6d S = Matrix6d::Random(6, 6);
+    S.diagonal().array() += 4.0;
+    const double scale = trial % 2 == 0 ? 1.0 : 0.7;
+    Eigen::Vector4d q_i = Eigen::Quaterniond(T_w_ci.linear()).coeffs() * scale;
+    Eigen::Vector4d q_j = Eigen::Quaterniond(T_w_cj.linear()).coeffs() / scale;
+    Eigen::Vector3d t_i = T_w_ci.translation(), t_j = T_w_cj.translation();
+    const double* parameters[] = {q_i.data(), t_i.data(), q_j.data(), t_j.data()};
+
+    std::unique_ptr<ceres::CostFunction> closed(RelativePoseResidual::Create(T_sj_si, T_c_s, S));
+    ceres::AutoDiffCostFunction<RelativePoseResidual, 6, 4, 3, 4, 3> automatic(
+        new RelativePoseResidual(T_sj_si, T_c_s, S));
+    Vector6d r_closed, r_automatic;
+    Eigen::Matrix<double, 6, 4, Eigen::RowMajor> qi_c, qi_a, qj_c, qj_a;
+    Eigen::Matrix<double, 6, 3, Eigen::RowMajor> ti_c, ti_a, tj_c, tj_a;
+    double* j_closed[] = {qi_c.data(), ti_c.data(), qj_c.data(), tj_c.data()};
+    double* j_automatic[] = {qi_a.data(), ti_a.data(), qj_a.data(), tj_a.data()};
+    ASSERT_TRUE(automatic.Evaluate(parameters, r_automatic.data(), j_automatic));
+    const double tolerance = 1e-10;
+    const auto relative = [](const auto& a, const auto& b) { return (a - b).norm() / b.norm(); };
+    for (int block = -1; block < 4; ++block) {  // -1: all blocks at once
+      const double nan = std::numeric_limits<double>::quiet_NaN();
+      qi_c.setConstant(nan);
+      ti_c.setConstant(nan);
+      qj_c.setConstant(nan);
+      tj_c.setConstant(nan);
+      double* asked[] = {nullptr, nullptr, nullptr, nullptr};
+      for (int k = 0; k < 4; ++k) {
+        if (block < 0 || block == k) asked[k] = j_closed[k];
+      }
+      ASSERT_TRUE(closed->Evaluate(parameters, r_closed.data(), asked));
+      EXPECT_LT((r_closed - r_automatic).norm(), 1e-12 * (1.0 + r_automatic.norm())) << trial;
+      if (block < 0 || block == 0) EXPECT_LT(relative(qi_c, qi_a), tolerance) << trial;
+      if (block < 0 || block == 1) EXPECT_LT(relative(ti_c, ti_a), tolerance) << trial;
+      if (block < 0 || block == 2) EXPECT_LT(relative(qj_c, qj_a), tolerance) << trial;
+      if (block < 0 || block == 3) EXPECT_LT(relative(tj_c, tj_a), tolerance) << trial;
+    }
+  }
 }
 
 // The relative-pose residual is S (omega, v) where the poses say Y = [Exp(omega), v] T_sj_si,
