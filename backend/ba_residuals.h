@@ -9,6 +9,7 @@
 // templated operator().
 #pragma once
 
+#include <cmath>
 #include <string>
 
 #include <ceres/rotation.h>

@@ -203,13 +203,19 @@ TEST(BundleAdjustmentTest, RelativePoseJacobiansInClosedFormAreAutomaticDifferen
         0.5 * angle * unit(rng), angle * unit(rng);
     return PoseToIsometry(pose);
   };
-  for (int trial = 0; trial < 20; ++trial) {
-    const Eigen::Isometry3d T_w_ci = random_pose(2.0, M_PI), T_w_cj = random_pose(2.0, M_PI);
-    const Eigen::Isometry3d T_c_s = random_pose(0.05, 0.1);
+  for (int trial = 0; trial < 21; ++trial) {
+    Eigen::Isometry3d T_w_ci = random_pose(2.0, M_PI), T_w_cj = random_pose(2.0, M_PI);
+    Eigen::Isometry3d T_c_s = random_pose(0.05, 0.1);
     // The measurement: the poses' own relative pose (misfit 0), or off by up to 0.3 rad.
     const double misfit = trial < 2 ? 0.0 : 0.3 * (trial % 5) / 4.0;
-    const Eigen::Isometry3d T_sj_si =
+    Eigen::Isometry3d T_sj_si =
         random_pose(0.1, misfit) * (T_w_cj * T_c_s).inverse() * (T_w_ci * T_c_s);
+    if (trial == 20) {  // every rotation the identity: the error rotation is exactly I
+      T_w_ci.linear().setIdentity();
+      T_w_cj.linear().setIdentity();
+      T_c_s.linear().setIdentity();
+      T_sj_si.linear().setIdentity();
+    }
     Matrix6d S = Matrix6d::Random(6, 6);
     S.diagonal().array() += 4.0;
     const double scale = trial % 2 == 0 ? 1.0 : 0.7;
@@ -249,8 +255,45 @@ TEST(BundleAdjustmentTest, RelativePoseJacobiansInClosedFormAreAutomaticDifferen
   }
 }
 
+// J_l(phi)^-1 is the derivative of Log(Exp(a) Exp(phi)) in a at 0, on both sides of the
+// small-angle series' threshold (1e-4 rad) and up to pi, by central differences.
+TEST(BundleAdjustmentTest, InverseLeftJacobianIsTheDerivativeOfTheLogarithm) {
+  const auto log = [](const Eigen::Matrix3d& R) {
+    const Eigen::AngleAxisd aa(R);
+    return Eigen::Vector3d(aa.angle() * aa.axis());
+  };
+  const auto exp = [](const Eigen::Vector3d& v) {
+    return v.norm() == 0.0 ? Eigen::Matrix3d::Identity()
+                           : Eigen::AngleAxisd(v.norm(), v.normalized()).toRotationMatrix();
+  };
+  const Eigen::Vector3d axis = Eigen::Vector3d(0.3, -0.5, 0.8).normalized();
+  for (const double angle : {0.0, 1e-6, 0.99e-4, 1.01e-4, 1e-2, 1.0, M_PI - 1e-3}) {
+    const Eigen::Vector3d phi = angle * axis;
+    const Eigen::Matrix3d R = exp(phi);
+    const double h = 1e-6;
+    Eigen::Matrix3d numeric;
+    for (int k = 0; k < 3; ++k) {
+      const Eigen::Vector3d a = h * Eigen::Vector3d::Unit(k);
+      numeric.col(k) = (log(exp(a) * R) - log(exp(-a) * R)) / (2.0 * h);
+    }
+    const Eigen::Matrix3d closed = ba_internal::InverseLeftJacobian(phi);
+    EXPECT_LT((closed - numeric).norm(), 1e-7) << angle;
+  }
+  // The series itself, where the derivative cannot show it (c K^2 is ~1e-9 at 1e-4 rad): its
+  // c against the closed formula's across the threshold. A wrong coefficient is off by ~0.1;
+  // the closed formula's rounding there (1/a^2 less a term as large) is ~1e-8.
+  const auto c_of = [&](double angle) {
+    const Eigen::Vector3d phi = angle * axis;
+    const Eigen::Matrix3d K = ba_internal::Skew(phi);
+    const Eigen::Matrix3d c_K2 =
+        ba_internal::InverseLeftJacobian(phi) - Eigen::Matrix3d::Identity() + 0.5 * K;
+    return c_K2(0, 0) / (K * K)(0, 0);
+  };
+  EXPECT_NEAR(c_of(0.999e-4), c_of(1.001e-4), 1e-6);
+}
+
 // The relative-pose residual is S (omega, v) where the poses say Y = [Exp(omega), v] T_sj_si,
-// through a sensor offset T_c_s, and its autodiff Jacobians pass the gradient checker.
+// through a sensor offset T_c_s, and its closed-form Jacobians pass the gradient checker.
 TEST(BundleAdjustmentTest, RelativePoseResidualIsTheChartOfTheMeasurementAndPassesGradientChecker) {
   std::mt19937 rng(4);
   std::uniform_real_distribution<double> unit(-1.0, 1.0);
