@@ -37,6 +37,44 @@ inline bool SqrtInformation(const Eigen::Matrix3d& Q, Eigen::Matrix3d* W) {
   return W->allFinite();
 }
 
+namespace ba_internal {
+
+// [v]x: Skew(v) a = v x a.
+inline Eigen::Matrix3d Skew(const Eigen::Vector3d& v) {
+  Eigen::Matrix3d m;
+  m << 0.0, -v.z(), v.y(), v.z(), 0.0, -v.x(), -v.y(), v.x(), 0.0;
+  return m;
+}
+
+// d theta / d q (3 x 4, Eigen's x, y, z, w order): to first order R(q' / |q'|) =
+// Exp(theta) R(q / |q|) for q' = q + dq, theta in the world frame. With q^ = q / |q| =
+// (u, w): theta = 2 (w du - u dw + u x du) for a step dq^ on the sphere, and
+// dq^ = (I - q^ q^^T) dq / |q|.
+inline Eigen::Matrix<double, 3, 4> WorldRotationOfQuaternionStep(const double* q_ptr) {
+  const Eigen::Map<const Eigen::Vector4d> q(q_ptr);
+  const double norm = q.norm();
+  const Eigen::Vector4d q_unit = q / norm;
+  const Eigen::Vector3d u = q_unit.head<3>();
+  Eigen::Matrix<double, 3, 4> d_theta_d_q_unit;
+  d_theta_d_q_unit.leftCols<3>() = 2.0 * (q_unit[3] * Eigen::Matrix3d::Identity() + Skew(u));
+  d_theta_d_q_unit.col(3) = -2.0 * u;
+  return d_theta_d_q_unit * ((Eigen::Matrix4d::Identity() - q_unit * q_unit.transpose()) / norm);
+}
+
+// The inverse of SO(3)'s left Jacobian at phi: Log(Exp(a) Exp(phi)) = phi + J_l(phi)^-1 a to
+// first order in a.
+inline Eigen::Matrix3d InverseLeftJacobian(const Eigen::Vector3d& phi) {
+  const double angle = phi.norm();
+  const Eigen::Matrix3d K = Skew(phi);
+  // 1 / a^2 - (1 + cos a) / (2 a sin a), by its series below 1e-4 rad (1/12 + a^2 / 720).
+  const double c = angle < 1e-4 ? 1.0 / 12.0 + angle * angle / 720.0
+                                : 1.0 / (angle * angle) -
+                                      (1.0 + std::cos(angle)) / (2.0 * angle * std::sin(angle));
+  return Eigen::Matrix3d::Identity() - 0.5 * K + c * K * K;
+}
+
+}  // namespace ba_internal
+
 // r = W (h(q_w_c, t_w_c, p_w) - z), with h = (fx x/z + cx, fy y/z + cy, |p_c|) and
 // p_c = R(q_w_c)^T (p_w - t_w_c).
 class UvdResidual {
@@ -105,10 +143,9 @@ class UvdResidual {
     if (d_t != nullptr) RowMajor33Map{d_t} = -A * R_c_w;
     if (d_q != nullptr) {
       Eigen::Matrix<double, 3, 4> d_p_c_d_q_unit;
-      Eigen::Matrix3d d_cross;
-      d_cross << 0.0, -d.z(), d.y(), d.z(), 0.0, -d.x(), -d.y(), d.x(), 0.0;
-      d_p_c_d_q_unit.leftCols<3>() = 2.0 * (u.dot(d) * Eigen::Matrix3d::Identity() +
-                                            u * d.transpose() - d * u.transpose() + w * d_cross);
+      d_p_c_d_q_unit.leftCols<3>() =
+          2.0 * (u.dot(d) * Eigen::Matrix3d::Identity() + u * d.transpose() - d * u.transpose() +
+                 w * ba_internal::Skew(d));
       d_p_c_d_q_unit.col(3) = 2.0 * (w * d - u.cross(d));
       const Eigen::Matrix4d normalize =
           (Eigen::Matrix4d::Identity() - q_unit * q_unit.transpose()) / norm;
@@ -151,43 +188,6 @@ inline ceres::CostFunction* UvdResidual::Create(const PinholeCamera& camera,
                                                 double min_depth_m) {
   return new UvdCostFunction(UvdResidual(camera, z, sqrt_information, min_depth_m));
 }
-
-namespace ba_internal {
-
-inline Eigen::Matrix3d Skew(const Eigen::Vector3d& v) {
-  Eigen::Matrix3d m;
-  m << 0.0, -v.z(), v.y(), v.z(), 0.0, -v.x(), -v.y(), v.x(), 0.0;
-  return m;
-}
-
-// d theta / d q (3 x 4, Eigen's x, y, z, w order): to first order R(q' / |q'|) =
-// Exp(theta) R(q / |q|) for q' = q + dq, theta in the world frame. With q^ = q / |q| =
-// (u, w): theta = 2 (w du - u dw + u x du) for a step dq^ on the sphere, and
-// dq^ = (I - q^ q^^T) dq / |q|.
-inline Eigen::Matrix<double, 3, 4> WorldRotationOfQuaternionStep(const double* q_ptr) {
-  const Eigen::Map<const Eigen::Vector4d> q(q_ptr);
-  const double norm = q.norm();
-  const Eigen::Vector4d q_unit = q / norm;
-  const Eigen::Vector3d u = q_unit.head<3>();
-  Eigen::Matrix<double, 3, 4> d_theta_d_q_unit;
-  d_theta_d_q_unit.leftCols<3>() = 2.0 * (q_unit[3] * Eigen::Matrix3d::Identity() + Skew(u));
-  d_theta_d_q_unit.col(3) = -2.0 * u;
-  return d_theta_d_q_unit * ((Eigen::Matrix4d::Identity() - q_unit * q_unit.transpose()) / norm);
-}
-
-// The inverse of SO(3)'s left Jacobian at phi: Log(Exp(a) Exp(phi)) = phi + J_l(phi)^-1 a to
-// first order in a.
-inline Eigen::Matrix3d InverseLeftJacobian(const Eigen::Vector3d& phi) {
-  const double angle = phi.norm();
-  const Eigen::Matrix3d K = Skew(phi);
-  // 1 / a^2 - (1 + cos a) / (2 a sin a), by its series below 1e-4 rad (1/12 + a^2 / 720).
-  const double c = angle < 1e-4 ? 1.0 / 12.0 + angle * angle / 720.0
-                                : 1.0 / (angle * angle) -
-                                      (1.0 + std::cos(angle)) / (2.0 * angle * std::sin(angle));
-  return Eigen::Matrix3d::Identity() - 0.5 * K + c * K * K;
-}
-
-}  // namespace ba_internal
 
 // r = S (Log(R_E), t_E) for E = Y T_sj_si^-1 and Y = (T_w_cj T_c_s)^-1 T_w_ci T_c_s, the
 // residual of a RelativePoseConstraint (backend/bundle_adjustment.h): zero where the poses
