@@ -403,6 +403,8 @@ void InformationFilter::Update(int frame_id, const Vector6d& T_w_c,
   if (HasPose(frame_id)) {
     throw DataError(FrameName(frame_id) + " is already in the filter");
   }
+  // A released factor is built from the matrix before the update changes it.
+  InformationFactor& factor = Factor();
   if (!T_w_c.allFinite()) throw DataError(FrameName(frame_id) + ": initial pose is not finite");
   const Linearization lin = Linearize(frame_id, T_w_c, observations, INT_MAX);
   // A pending feature entering now ties the pose to the earlier poses that saw it.
@@ -419,7 +421,7 @@ void InformationFilter::Update(int frame_id, const Vector6d& T_w_c,
   timings_.linearize_s = SecondsSince(start);
   if (defer_recovery_) {
     // No factorisation (the factor only notes what the update touched, for its next one).
-    factor_->AddDeferred(matrix_, update);
+    factor.AddDeferred(matrix_, update);
     GrowState(lin, old_dim);
     Register(lin, frame_id, old_dim, new_dim);
     recovery_pending_ = true;
@@ -433,11 +435,11 @@ void InformationFilter::Update(int frame_id, const Vector6d& T_w_c,
   guess.conservativeResize(new_dim);
   guess.tail<6>() = T_w_c;
   Eigen::VectorXd solution;
-  if (factor_->AddAndSolve(matrix_, update, /*keep_exact=*/!options_.iterative_recovery,
-                           info_vector_, guess, &solution) != FactorStatus::kOk) {
+  if (factor.AddAndSolve(matrix_, update, /*keep_exact=*/!options_.iterative_recovery, info_vector_,
+                         guess, &solution) != FactorStatus::kOk) {
     TakeBack(undo);
     // (With deferred frames pending there was no factor of the old matrix to restore.)
-    factor_->Restore(matrix_, /*factored=*/!recovery_pending_);
+    factor.Restore(matrix_, /*factored=*/!recovery_pending_);
     throw DataError("adding " + FrameName(frame_id) +
                     " makes the information matrix not positive definite (degenerate "
                     "observations?)");
@@ -445,7 +447,7 @@ void InformationFilter::Update(int frame_id, const Vector6d& T_w_c,
   Register(lin, frame_id, old_dim, new_dim);
   state_ = std::move(solution);
   recovery_pending_ = false;  // the deferred frames were factored in too
-  const FactorTimings& factor_timings = factor_->timings();
+  const FactorTimings& factor_timings = factor.timings();
   timings_.analyze_s = factor_timings.analyze_s;
   timings_.factorize_s = factor_timings.factorize_s;
   timings_.solve_s = factor_timings.solve_s;
@@ -556,18 +558,36 @@ void InformationFilter::CheckRecovered() const {
   CHECK(!recovery_pending_) << "deferred updates are pending: call Recover() first";
 }
 
+void InformationFilter::ReleaseFactor() {
+  CheckRecovered();
+  factor_.reset();
+}
+
+InformationFactor& InformationFilter::Factor() const {
+  if (factor_ == nullptr) {
+    InformationFilter fresh(options_, camera_);
+    fresh.Restore(Snapshot());
+    factor_ = std::move(fresh.factor_);
+  }
+  return *factor_;
+}
+
 void InformationFilter::EnsureExactFactor() const {
   CheckRecovered();
   const std::lock_guard<std::mutex> lock(factor_mutex_);
-  factor_->MakeExact();
+  Factor().MakeExact();
 }
 
 int64_t InformationFilter::FactorNonzeros() const {
   CheckRecovered();
-  return factor_->FactorNonzeros();
+  const std::lock_guard<std::mutex> lock(factor_mutex_);
+  return Factor().FactorNonzeros();
 }
 
-bool InformationFilter::uses_pose_schur() const { return factor_->uses_pose_schur(); }
+bool InformationFilter::uses_pose_schur() const {
+  const std::lock_guard<std::mutex> lock(factor_mutex_);
+  return Factor().uses_pose_schur();
+}
 
 Vector6d InformationFilter::pose(int frame_id) const {
   CheckRecovered();

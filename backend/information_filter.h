@@ -235,6 +235,14 @@ class InformationFilter {
   // filter lays it out) or its matrix is not positive definite.
   void Restore(const FilterSnapshot& snapshot);
 
+  // Frees the factor, a cache of the information matrix (the dense pose Schur complement and
+  // its Cholesky factor alone are (6 poses)^2 doubles each), for a caller done updating whose
+  // later stages need the memory. The next update or query that needs a factor factors the
+  // matrix anew, as Restore does, so its answers agree with the released factor's to
+  // rounding (FactorNonzeros may differ: a sparse factor's ordering is chosen anew). The
+  // filter must be recovered.
+  void ReleaseFactor();
+
   bool HasPose(int frame_id) const { return pose_offset_.count(frame_id) > 0; }
   // In the state.
   bool HasFeature(int64_t feature_id) const { return feature_offset_.count(feature_id) > 0; }
@@ -380,6 +388,9 @@ class InformationFilter {
   // Recovered, and the factor exact (lazy updates leave only a preconditioner): what log det
   // and covariances need. Refactors if needed, under factor_mutex_.
   void EnsureExactFactor() const;
+  // The factor, factored anew from the matrix after ReleaseFactor. The caller holds
+  // factor_mutex_ in const queries.
+  InformationFactor& Factor() const;
   // The current estimate (the initial value while a recovery is pending).
   Eigen::Vector3d FeatureEstimate(int64_t feature_id) const {
     return state_.segment<3>(StateIndex(VariableRef::Feature(feature_id)));
@@ -388,9 +399,9 @@ class InformationFilter {
   InformationFilterOptions options_;
   PinholeCamera camera_;
   UpperColumnStorage matrix_;
-  // Const queries may make it exact (EnsureExactFactor): its state is a cache of the
-  // matrix, which they do not change.
-  std::unique_ptr<InformationFactor> factor_;
+  // Const queries may make it exact (EnsureExactFactor) or build it anew (Factor): its state
+  // is a cache of the matrix, which they do not change. Null after ReleaseFactor.
+  mutable std::unique_ptr<InformationFactor> factor_;
   mutable std::mutex factor_mutex_;
   Eigen::VectorXd info_vector_;
   Eigen::VectorXd state_;

@@ -11,6 +11,7 @@
 #include "backend/evaluation/evaluation.h"
 #include "backend/evaluation/evaluation_io.h"
 #include "core/error.h"
+#include "core/freed_memory.h"
 #include "core/stopwatch.h"
 #include "frontend/rolling_shutter.h"
 
@@ -365,6 +366,8 @@ RunResult Run(const Dataset& dataset, const RunOptions& options, const PipelineH
   CollectTrajectories(dataset, &run);
   run.evaluation_seconds = SecondsSince(evaluation_start);
   if (run.map && !map_built) MapSelectedFrames(dataset, has_images, used, hooks, &run);
+  // The frames and points the map's loading freed, before the outputs allocate theirs.
+  ReturnFreedMemory();
   // A stop in the refinement or the map, where the selection no longer polls.
   if (!run.pipeline.selection.interrupted && hooks.stop && hooks.stop()) {
     run.stopped_after_selection = true;

@@ -2,11 +2,8 @@
 
 #include <chrono>
 
-#ifdef __GLIBC__
-#include <malloc.h>
-#endif
-
 #include "core/error.h"
+#include "core/freed_memory.h"
 #include "core/stopwatch.h"
 
 namespace ieslam {
@@ -46,12 +43,10 @@ PipelineResult RunPipeline(FrameSource* source, const PinholeCamera& camera,
   result.selection_wall_seconds = SecondsSince(selection_start);
   if (hooks.before_finish) hooks.before_finish(result.selection, *result.filter);
   source->Finish();
-#ifdef __GLIBC__
   // What the selection freed (processed frames, the descriptor database, SIFT's scratch in
   // the workers' arenas) goes back to the system before the map and the refinement allocate
-  // theirs: the allocator otherwise keeps it (apps/main.cc raises the trim threshold).
-  malloc_trim(0);
-#endif
+  // theirs.
+  ReturnFreedMemory();
   result.T_w_c = KeyframeSelector::FramePoses(result.selection, *result.filter);
   const bool dead_reckoning = !result.selection.chained_T_w_c.empty();
   if (dead_reckoning || result.filter->num_poses() == 0) return result;
@@ -61,6 +56,10 @@ PipelineResult RunPipeline(FrameSource* source, const PinholeCamera& camera,
   const auto covariance_start = std::chrono::steady_clock::now();
   result.estimate = FilterEstimate(*result.filter);
   result.covariance_seconds = SecondsSince(covariance_start);
+  // The filter takes no more updates: its factor goes back too (queries still answer, from
+  // a factor built anew).
+  result.filter->ReleaseFactor();
+  ReturnFreedMemory();
   if (!options.refine) return result;
   RangeClouds loaded;
   const bool align = clouds != nullptr && options.depth_alignment.rounds > 0;

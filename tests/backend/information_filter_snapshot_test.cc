@@ -1,6 +1,6 @@
 // A filter taken over from its snapshot goes on as the filter it was taken of: the same state,
-// covariances and log det, the same next update; and a snapshot that does not hold together is
-// refused, leaving the filter empty.
+// covariances and log det, the same next update; so does one whose factor was released; and a
+// snapshot that does not hold together is refused, leaving the filter empty.
 #include <cmath>
 #include <random>
 #include <string>
@@ -102,6 +102,53 @@ TEST_P(InformationFilterSnapshotTest, ARestoredFilterGoesOnAsTheOriginal) {
   }
   EXPECT_EQ(restored.uses_pose_schur(), original.uses_pose_schur());
   EXPECT_LT((restored.state() - original.state()).lpNorm<Eigen::Infinity>(), 1e-9);
+}
+
+// A released factor is built anew from the matrix by the first query or update that needs
+// it: the same answers as the filter that kept its factor, and the same next updates.
+TEST_P(InformationFilterSnapshotTest, AReleasedFactorIsBuiltAnewWhenNeeded) {
+  for (const int min_sightings : {1, 2}) {
+    SCOPED_TRACE("min_sightings " + std::to_string(min_sightings));
+    std::mt19937 rng(11);
+    const Scene scene = MakeScene(9, 80, &rng);
+    // Two filters of the same updates.
+    InformationFilter kept(Options(min_sightings), scene.camera);
+    InformationFilter released(Options(min_sightings), scene.camera);
+    std::mt19937 rng_kept(12), rng_released(12);
+    Fill(scene, 7, &rng_kept, &kept);
+    Fill(scene, 7, &rng_released, &released);
+    released.ReleaseFactor();
+    // Nothing but the factor is released.
+    EXPECT_TRUE(released.state() == kept.state());
+    EXPECT_EQ(released.num_pending_features(), kept.num_pending_features());
+    EXPECT_EQ(released.uses_pose_schur(), kept.uses_pose_schur());
+    // The factor is the one Restore builds (the sparse factor's ordering is chosen anew, so
+    // its fill may differ from the kept factor's).
+    InformationFilter restored(Options(min_sightings), scene.camera);
+    restored.Restore(kept.Snapshot());
+    EXPECT_EQ(released.FactorNonzeros(), restored.FactorNonzeros());
+    const double log_det = kept.LogDetInformation();
+    EXPECT_NEAR(released.LogDetInformation(), log_det, 1e-10 * std::abs(log_det));
+    const int last = kept.frame_ids().back();
+    EXPECT_LT((released.PoseCovariance(last) - kept.PoseCovariance(last)).norm(),
+              1e-9 * kept.PoseCovariance(last).norm());
+
+    // Released again, then updated first: the update builds the factor before it changes the
+    // matrix, and the state follows the kept filter's.
+    released.ReleaseFactor();
+    for (int i = 7; i < 9; ++i) {
+      const std::vector<FeatureObservation> observations = Observe(scene, i, true, &rng);
+      const Vector6d initial = Perturb(scene.poses[i], 0.02, 0.01, &rng);
+      kept.AddPose(scene.frame_ids[i], initial, observations);
+      released.AddPose(scene.frame_ids[i], initial, observations);
+    }
+    EXPECT_EQ(released.state_dim(), kept.state_dim());
+    EXPECT_LT((released.state() - kept.state()).lpNorm<Eigen::Infinity>(), 1e-9);
+    EXPECT_LT(
+        (released.PoseCovariance(scene.frame_ids[8]) - kept.PoseCovariance(scene.frame_ids[8]))
+            .norm(),
+        1e-9 * kept.PoseCovariance(scene.frame_ids[8]).norm());
+  }
 }
 
 // With delayed initialisation the snapshot holds the pending features' sightings too, and
