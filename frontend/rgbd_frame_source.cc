@@ -317,7 +317,9 @@ void RgbdFrameSource::Commit(const CandidateFrame& candidate) {
   next_feature_id_ = max_id + 1;
   feature_ids_[candidate.frame] = std::move(it->second);
   pending_.erase(it);
+  const auto database_start = std::chrono::steady_clock::now();
   database_.Add(candidate.frame, Processed(candidate.frame).features.descriptors);
+  timings_.database_s += SecondsSince(database_start);
   last_base_ = candidate.frame;
   // Frames up to this one are prepared again only for recovery, which may redo the work.
   for (auto it = registrations_.begin(); it != registrations_.end();) {

@@ -64,12 +64,15 @@ struct SourceTimings {
   double match_s = 0.0;
   double ransac_s = 0.0;
   double load_s = 0.0;
+  // Adding committed frames' descriptors to the base frame database (their copy, and the
+  // search index rebuilt as the database grows), on the caller's thread.
+  double database_s = 0.0;
   // Wall time the caller's thread spent getting processed frames: all of load + extract +
   // lift when sequential, only the waits when workers prefetch.
   double fetch_wall_s = 0.0;
-  double total() const { return extract_s + lift_s + match_s + ransac_s + load_s; }
+  double total() const { return extract_s + lift_s + match_s + ransac_s + load_s + database_s; }
   // The front end's share of the caller's thread (what selection time must not include).
-  double caller() const { return fetch_wall_s + match_s + ransac_s; }
+  double caller() const { return fetch_wall_s + match_s + ransac_s + database_s; }
 };
 
 class RgbdFrameSource : public FrameSource {

@@ -90,6 +90,7 @@ Json SecondsToJson(const RunResult& run, bool refine, double total_seconds,
       .Set("lift", t.lift_s)
       .Set("match", t.match_s)
       .Set("ransac", t.ransac_s)
+      .Set("database", t.database_s)
       .Set("fetch_wall", t.fetch_wall_s);
   return seconds;
 }
