@@ -56,6 +56,17 @@ class InformationFilterSnapshotTest : public ::testing::TestWithParam<int> {
                       Observe(scene, i, true, rng));
     }
   }
+  // Poses [begin, end) of the scene into both filters, with the same observations and initial
+  // values.
+  static void AddToBoth(const Scene& scene, int begin, int end, std::mt19937* rng,
+                        InformationFilter* a, InformationFilter* b) {
+    for (int i = begin; i < end; ++i) {
+      const std::vector<FeatureObservation> observations = Observe(scene, i, true, rng);
+      const Vector6d initial = Perturb(scene.poses[i], 0.02, 0.01, rng);
+      a->AddPose(scene.frame_ids[i], initial, observations);
+      b->AddPose(scene.frame_ids[i], initial, observations);
+    }
+  }
 };
 
 INSTANTIATE_TEST_SUITE_P(Factorisations, InformationFilterSnapshotTest,
@@ -94,12 +105,7 @@ TEST_P(InformationFilterSnapshotTest, ARestoredFilterGoesOnAsTheOriginal) {
   EXPECT_LT((a - b).norm(), 1e-9 * a.norm());
 
   // The next poses, identically: the same estimate.
-  for (int i = 7; i < 9; ++i) {
-    const std::vector<FeatureObservation> observations = Observe(scene, i, true, &rng);
-    const Vector6d initial = Perturb(scene.poses[i], 0.02, 0.01, &rng);
-    original.AddPose(scene.frame_ids[i], initial, observations);
-    restored.AddPose(scene.frame_ids[i], initial, observations);
-  }
+  AddToBoth(scene, 7, 9, &rng, &original, &restored);
   EXPECT_EQ(restored.uses_pose_schur(), original.uses_pose_schur());
   EXPECT_LT((restored.state() - original.state()).lpNorm<Eigen::Infinity>(), 1e-9);
 }
@@ -136,12 +142,7 @@ TEST_P(InformationFilterSnapshotTest, AReleasedFactorIsBuiltAnewWhenNeeded) {
     // Released again, then updated first: the update builds the factor before it changes the
     // matrix, and the state follows the kept filter's.
     released.ReleaseFactor();
-    for (int i = 7; i < 9; ++i) {
-      const std::vector<FeatureObservation> observations = Observe(scene, i, true, &rng);
-      const Vector6d initial = Perturb(scene.poses[i], 0.02, 0.01, &rng);
-      kept.AddPose(scene.frame_ids[i], initial, observations);
-      released.AddPose(scene.frame_ids[i], initial, observations);
-    }
+    AddToBoth(scene, 7, 9, &rng, &kept, &released);
     EXPECT_EQ(released.state_dim(), kept.state_dim());
     EXPECT_LT((released.state() - kept.state()).lpNorm<Eigen::Infinity>(), 1e-9);
     EXPECT_LT(
