@@ -564,7 +564,10 @@ void InformationFilter::ReleaseFactor() {
 }
 
 InformationFactor& InformationFilter::Factor() const {
-  if (factor_ == nullptr) {
+  if (factor_ != nullptr) return *factor_;
+  if (state_dim() == 0) {
+    factor_ = NewFactor();
+  } else {
     InformationFilter fresh(options_, camera_);
     fresh.Restore(Snapshot());
     factor_ = std::move(fresh.factor_);

@@ -59,7 +59,7 @@ struct InformationFilterOptions {
   // Up to this pose dimension (6 per pose) the matrix is factored through its dense pose
   // Schur complement (backend/pose_schur_factor.h); past it the sparse factor takes over for
   // good; 0: always sparse. Both are exact; the dense one is the faster while the poses are
-  // few, and needs O(P^2) memory, ~(6P + 600)^2 * 16 bytes (docs/filter_internals.md).
+  // few, and needs O(P^2) memory, at most ~(7.5P)^2 * 16 bytes (docs/filter_internals.md).
   int max_dense_pose_dim = 2400;
   // While the pose Schur complement factors the matrix: true recovers the state after an
   // update by conjugate gradients preconditioned with the last factor (the poses added since
@@ -239,8 +239,10 @@ class InformationFilter {
   // its Cholesky factor alone are (6 poses)^2 doubles each), for a caller done updating whose
   // later stages need the memory. The next update or query that needs a factor factors the
   // matrix anew, as Restore does, so its answers agree with the released factor's to
-  // rounding (FactorNonzeros may differ: a sparse factor's ordering is chosen anew). The
-  // filter must be recovered.
+  // rounding (FactorNonzeros may differ: a sparse factor's ordering is chosen anew). That
+  // costs one factorisation, and throws DataError where Restore would: where the dense factor
+  // had handed over to the sparse one early, unable to recover the state, factoring anew may
+  // fail. The filter must be recovered.
   void ReleaseFactor();
 
   bool HasPose(int frame_id) const { return pose_offset_.count(frame_id) > 0; }

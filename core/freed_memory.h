@@ -1,6 +1,8 @@
 // Handing freed heap memory back to the system between stages.
 #pragma once
 
+#include <cstdlib>  // defines __GLIBC__ with glibc
+
 #ifdef __GLIBC__
 #include <malloc.h>
 #endif

@@ -362,6 +362,12 @@ RunResult Run(const Dataset& dataset, const RunOptions& options, const PipelineH
   }
   if (used.save_map && run.pipeline.has_estimate)
     SaveMap(dataset, continued, used, std::move(taken), &run);
+  // Nothing asks the filter for covariances or log dets after the saved map's features: its
+  // factor goes back to the system before the map and the outputs allocate theirs.
+  if (run.pipeline.has_estimate) {
+    run.pipeline.filter->ReleaseFactor();
+    ReturnFreedMemory();
+  }
   const auto evaluation_start = std::chrono::steady_clock::now();
   CollectTrajectories(dataset, &run);
   run.evaluation_seconds = SecondsSince(evaluation_start);

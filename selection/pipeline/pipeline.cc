@@ -56,10 +56,6 @@ PipelineResult RunPipeline(FrameSource* source, const PinholeCamera& camera,
   const auto covariance_start = std::chrono::steady_clock::now();
   result.estimate = FilterEstimate(*result.filter);
   result.covariance_seconds = SecondsSince(covariance_start);
-  // The filter takes no more updates: its factor goes back too (queries still answer, from
-  // a factor built anew).
-  result.filter->ReleaseFactor();
-  ReturnFreedMemory();
   if (!options.refine) return result;
   RangeClouds loaded;
   const bool align = clouds != nullptr && options.depth_alignment.rounds > 0;

@@ -71,8 +71,7 @@ struct PipelineResume {
 
 struct PipelineResult {
   SelectionResult selection;
-  // The filter with every selected pose and feature (empty for dead reckoning). Its factor is
-  // released once the estimate is recovered (InformationFilter::ReleaseFactor).
+  // The filter with every selected pose and feature (empty for dead reckoning).
   std::unique_ptr<InformationFilter> filter;
   // Every frame of the source: the filter's estimate for selected frames, the base frame's
   // composed with the registration for the others; nullopt where the frame was not placed.

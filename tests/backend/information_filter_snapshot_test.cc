@@ -124,17 +124,17 @@ TEST_P(InformationFilterSnapshotTest, AReleasedFactorIsBuiltAnewWhenNeeded) {
     Fill(scene, 7, &rng_kept, &kept);
     Fill(scene, 7, &rng_released, &released);
     released.ReleaseFactor();
-    // Nothing but the factor is released.
+    // Nothing but the factor is released; the first query builds it.
     EXPECT_TRUE(released.state() == kept.state());
     EXPECT_EQ(released.num_pending_features(), kept.num_pending_features());
+    const double log_det = kept.LogDetInformation();
+    EXPECT_NEAR(released.LogDetInformation(), log_det, 1e-10 * std::abs(log_det));
     EXPECT_EQ(released.uses_pose_schur(), kept.uses_pose_schur());
     // The factor is the one Restore builds (the sparse factor's ordering is chosen anew, so
     // its fill may differ from the kept factor's).
     InformationFilter restored(Options(min_sightings), scene.camera);
     restored.Restore(kept.Snapshot());
     EXPECT_EQ(released.FactorNonzeros(), restored.FactorNonzeros());
-    const double log_det = kept.LogDetInformation();
-    EXPECT_NEAR(released.LogDetInformation(), log_det, 1e-10 * std::abs(log_det));
     const int last = kept.frame_ids().back();
     EXPECT_LT((released.PoseCovariance(last) - kept.PoseCovariance(last)).norm(),
               1e-9 * kept.PoseCovariance(last).norm());
@@ -150,6 +150,13 @@ TEST_P(InformationFilterSnapshotTest, AReleasedFactorIsBuiltAnewWhenNeeded) {
             .norm(),
         1e-9 * kept.PoseCovariance(scene.frame_ids[8]).norm());
   }
+  // An empty filter's released factor is an empty one again: the first pose goes in.
+  std::mt19937 rng(13);
+  const Scene scene = MakeScene(3, 40, &rng);
+  InformationFilter empty(Options(), scene.camera);
+  empty.ReleaseFactor();
+  Fill(scene, 3, &rng, &empty);
+  EXPECT_EQ(empty.num_poses(), 3);
 }
 
 // With delayed initialisation the snapshot holds the pending features' sightings too, and

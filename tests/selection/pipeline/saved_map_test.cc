@@ -159,7 +159,8 @@ TEST_F(SavedMapTest, HoldsTheFiltersEstimateTheRefinedPosesAndTheGroundTruth) {
   const BundleAdjustmentResult& refined = run_->pipeline.refinement->refined();
   for (const MapKeyframe& k : map.keyframes) {
     EXPECT_EQ(k.pose, filter.pose(k.frame));
-    // The filter's factor was released after the estimate; built anew, it agrees to rounding.
+    // The run released the filter's factor after the saved map; built anew, it agrees to
+    // rounding.
     EXPECT_LT((k.covariance - filter.PoseCovariance(k.frame)).norm(), 1e-9 * k.covariance.norm());
     EXPECT_TRUE(k.refined);
     EXPECT_EQ(k.refined_pose, refined.poses.at(k.frame));
