@@ -48,8 +48,8 @@ PoseSchurFactor::PoseSchurFactor(const PoseSchurOptions& options)
 void PoseSchurFactor::Grow(int n) {
   if (blocks_.capacity() >= n) return;
   // A quarter more room (ten poses at least): a copy costs one pass over S and its factor,
-  // far less than the updates between copies, and at most a fifth of their rows and columns
-  // stay unused.
+  // far less than the updates between copies, and past 40 poses at most a fifth of their rows
+  // and columns stay unused.
   const int capacity = n + std::max(60, n / 4);
   blocks_.Reserve(capacity);
   factor_.Reserve(capacity);
