@@ -369,6 +369,7 @@ void BundleAdjustmentRun::SetSolverOptions() {
   solver_options_.function_tolerance = options_.function_tolerance;
   solver_options_.gradient_tolerance = options_.gradient_tolerance;
   solver_options_.parameter_tolerance = options_.parameter_tolerance;
+  solver_options_.initial_trust_region_radius = options_.initial_trust_region_radius;
   solver_options_.num_threads = options_.num_threads;
   solver_options_.logging_type = ceres::SILENT;
   solver_options_.minimizer_progress_to_stdout = false;
@@ -497,6 +498,10 @@ void BundleAdjustmentRun::Collect(int anchor_id, std::chrono::steady_clock::time
   result.observations = static_cast<int>(problem_.observations.size());
   for (size_t k = 0; k < block_of_.size(); ++k) {
     if (block_of_[k] == nullptr) result.rejected.push_back(problem_.observations[k]);
+  }
+  result.relative_pose_kept.assign(relative_block_.size(), 0);
+  for (size_t k = 0; k < relative_block_.size(); ++k) {
+    result.relative_pose_kept[k] = relative_block_[k] != nullptr;
   }
   result.final_cost = summary_.final_cost;
   result.num_residuals = ceres_problem_.NumResiduals();

@@ -88,6 +88,9 @@ const OptionTable<BundleAdjustmentOptions>& BundleAdjustmentOptions::Table() {
     t->Double("gradient_tolerance", &O::gradient_tolerance, "Ceres' gradient tolerance").Min(0.0);
     t->Double("parameter_tolerance", &O::parameter_tolerance, "Ceres' parameter tolerance")
         .Min(0.0);
+    t->Double("initial_trust_region_radius", &O::initial_trust_region_radius,
+              "Levenberg-Marquardt's first trust region (its reciprocal: the first damping)")
+        .Above(0.0);
     t->Enum("linear_solver", &O::linear_solver, ParseBaLinearSolver, BaLinearSolverName,
             "auto|dense_schur|sparse_schur|sparse_normal_cholesky",
             "Ceres' linear solver (auto: dense Schur for few poses or a full system)");

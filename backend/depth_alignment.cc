@@ -315,9 +315,13 @@ const OptionTable<DepthAlignmentOptions>& DepthAlignmentOptions::Table() {
   return *table;
 }
 
-PairAlignment AlignRangeClouds(const RangeCloud& source, const RangeCloud& target,
-                               const Eigen::Isometry3d& T_t_s_initial,
-                               const DepthAlignmentOptions& options) {
+namespace {
+
+// AlignRangeClouds; `converged_start` says T_t_s_initial is the pair's own earlier
+// alignment, already in the final phase's basin, and the coarse phase is skipped.
+PairAlignment Align(const RangeCloud& source, const RangeCloud& target,
+                    const Eigen::Isometry3d& T_t_s_initial, const DepthAlignmentOptions& options,
+                    bool converged_start) {
   PairAlignment result;
   const std::vector<int> samples = Samples(source, options.sample_step);
   result.samples = static_cast<int>(samples.size());
@@ -337,7 +341,8 @@ PairAlignment AlignRangeClouds(const RangeCloud& source, const RangeCloud& targe
        std::max(6, static_cast<int>(std::ceil(options.min_correspondences * coarse_share)))},
       {&samples, options.final_gate_m, options.min_correspondences}};
   // A cloud too sparse for the coarse phase starts at the fine one.
-  int phase = static_cast<int>(coarse.size()) < phases[0].min_correspondences ? 1 : 0;
+  int phase =
+      converged_start || static_cast<int>(coarse.size()) < phases[0].min_correspondences ? 1 : 0;
   Eigen::Isometry3d Y = T_t_s_initial;
   bool converged = false;
   // Converged once a step is below a tenth of a millimetre (and of a milliradian, a tenth of
@@ -375,10 +380,18 @@ PairAlignment AlignRangeClouds(const RangeCloud& source, const RangeCloud& targe
   return result;
 }
 
-std::vector<RelativePoseConstraint> AlignCloudPairs(const std::map<int, RangeCloud>& clouds,
-                                                    const std::map<int, Eigen::Isometry3d>& T_w_c,
-                                                    const DepthAlignmentOptions& options,
-                                                    DepthAlignmentStats* stats) {
+}  // namespace
+
+PairAlignment AlignRangeClouds(const RangeCloud& source, const RangeCloud& target,
+                               const Eigen::Isometry3d& T_t_s_initial,
+                               const DepthAlignmentOptions& options) {
+  return Align(source, target, T_t_s_initial, options, false);
+}
+
+std::vector<RelativePoseConstraint> AlignCloudPairs(
+    const std::map<int, RangeCloud>& clouds, const std::map<int, Eigen::Isometry3d>& T_w_c,
+    const DepthAlignmentOptions& options, DepthAlignmentStats* stats,
+    const std::vector<RelativePoseConstraint>* starts) {
   std::string why;
   if (!options.Check(&why)) throw ConfigError(why);
   std::vector<int> frames;
@@ -416,10 +429,16 @@ std::vector<RelativePoseConstraint> AlignCloudPairs(const std::map<int, RangeClo
     pairs.emplace_back(frames[a], frames[b]);
     T_j_i.push_back(T_w_s[b].inverse() * T_w_s[a]);
   }
+  std::map<std::pair<int, int>, Eigen::Isometry3d> own_start;
+  if (starts != nullptr) {
+    for (const RelativePoseConstraint& c : *starts) own_start[{c.frame_i, c.frame_j}] = c.T_sj_si;
+  }
   std::vector<PairAlignment> aligned(pairs.size());
   ParallelFor(pairs.size(), options.num_threads, [&](size_t k) {
-    aligned[k] =
-        AlignRangeClouds(clouds.at(pairs[k].first), clouds.at(pairs[k].second), T_j_i[k], options);
+    const auto own = own_start.find(pairs[k]);
+    const bool converged_start = own != own_start.end();
+    aligned[k] = Align(clouds.at(pairs[k].first), clouds.at(pairs[k].second),
+                       converged_start ? own->second : T_j_i[k], options, converged_start);
   });
 
   std::vector<RelativePoseConstraint> constraints;
@@ -438,6 +457,8 @@ std::vector<RelativePoseConstraint> AlignCloudPairs(const std::map<int, RangeClo
   if (stats != nullptr) {
     stats->pairs_tried = static_cast<int>(pairs.size());
     stats->constraints = static_cast<int>(constraints.size());
+    stats->iterations = 0;
+    for (const PairAlignment& a : aligned) stats->iterations += a.iterations;
     stats->mean_overlap = constraints.empty() ? 0.0 : overlap_sum / constraints.size();
   }
   return constraints;
@@ -474,7 +495,16 @@ BundleAdjustmentResult SolveWithDepthAlignment(BundleAdjustmentProblem problem,
       break;
     }
     const auto align_start = std::chrono::steady_clock::now();
-    problem.relative_poses = AlignCloudPairs(clouds, problem.T_w_c, round_options, s);
+    // The pairs the last solve kept start from their own alignment there: the poses that
+    // solve settled on are a compromise with the features (centimetres from a pair's own
+    // optimum on real depth), and a start at that optimum converges in a few fine steps.
+    std::vector<RelativePoseConstraint> kept;
+    for (size_t k = 0; k < problem.relative_poses.size(); ++k) {
+      if (k < result.relative_pose_kept.size() && result.relative_pose_kept[k]) {
+        kept.push_back(problem.relative_poses[k]);
+      }
+    }
+    problem.relative_poses = AlignCloudPairs(clouds, problem.T_w_c, round_options, s, &kept);
     for (RelativePoseConstraint& c : problem.relative_poses) {
       c.sqrt_information /= std::sqrt(variance_factor);
     }

@@ -100,6 +100,7 @@ struct DepthAlignmentStats {
   int rounds = 0;
   int pairs_tried = 0;  // last round: pairs whose clouds overlap at the starting poses
   int constraints = 0;  // last round: pairs aligned and used
+  int iterations = 0;   // last round: the Gauss-Newton steps of its pairs' alignments
   double mean_overlap = 0.0;
   // The constraints' information was divided by this in the solve that stands
   // (BundleAdjustmentOptions::weigh_relative_poses; 1 without).
@@ -111,11 +112,14 @@ struct DepthAlignmentStats {
 };
 
 // The constraints of every overlapping pair of clouds (frame ids of `clouds`) at the poses
-// T_w_c, i < j; clouds without a pose are ignored.
-std::vector<RelativePoseConstraint> AlignCloudPairs(const std::map<int, RangeCloud>& clouds,
-                                                    const std::map<int, Eigen::Isometry3d>& T_w_c,
-                                                    const DepthAlignmentOptions& options,
-                                                    DepthAlignmentStats* stats = nullptr);
+// T_w_c, i < j; clouds without a pose are ignored. A pair with a constraint in `starts`
+// (converged alignments, e.g. an earlier round's) is aligned from that constraint's T_sj_si
+// in the final phase only, instead of from T_w_c through the coarse phase; the pairs tried
+// are those T_w_c makes overlap either way.
+std::vector<RelativePoseConstraint> AlignCloudPairs(
+    const std::map<int, RangeCloud>& clouds, const std::map<int, Eigen::Isometry3d>& T_w_c,
+    const DepthAlignmentOptions& options, DepthAlignmentStats* stats = nullptr,
+    const std::vector<RelativePoseConstraint>* starts = nullptr);
 
 // The bundle adjustment of `problem` with the clouds' pairwise constraints added
 // (problem.relative_poses is replaced by them), alternated with the alignment for

@@ -49,6 +49,7 @@ Json DepthAlignmentToJson(const Refinement& refinement) {
       .Set("pairs_tried", stats.pairs_tried)
       .Set("constraints", stats.constraints)
       .Set("rejected_constraints", refinement.depth_aligned.rejected_relative_poses)
+      .Set("alignment_iterations", stats.iterations)
       .Set("constraint_variance_factor", stats.variance_factor)
       .Set("sample_step", stats.sample_step)
       .Set("frames", refinement.depth_frames)

@@ -214,6 +214,42 @@ TEST(DepthAlignmentTest, RefinementWithCloudsAloneRecoversThePoses) {
 // own scale (+-2%, within a Kinect's depth calibration error; correlated across the whole
 // image), the constraints disagree far beyond their stated precision (a variance factor of
 // about 25) and the sampling stays as it started.
+// A later round's pairs start from their own earlier alignments (SolveWithDepthAlignment
+// passes the ones its last solve kept): from there they take fewer steps and end where the
+// alignment from the poses does, within its convergence step.
+TEST(DepthAlignmentTest, PairsStartedFromTheirOwnAlignmentEndThereInFewerSteps) {
+  const RangeImager range = testing_core::KinectRangeImager();
+  std::map<int, Eigen::Isometry3d> truth = {{0, Pose(0.0, 0.0, 0.0, 0.0, 0.0)},
+                                            {3, Pose(0.2, 0.0, 0.1, 10.0, -3.0)},
+                                            {7, Pose(0.4, -0.1, 0.3, 20.0, 2.0)}};
+  std::map<int, RangeCloud> clouds;
+  std::map<int, Eigen::Isometry3d> started;
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  for (const auto& [frame, T] : truth) {
+    clouds[frame] = Cloud(range, T, &rng);
+    started[frame] = Perturb(T, Eigen::Vector3d(unit(rng), unit(rng), unit(rng)) * 0.5 * kDeg,
+                             Eigen::Vector3d(unit(rng), unit(rng), unit(rng)) * 0.015);
+  }
+  DepthAlignmentOptions options;
+  DepthAlignmentStats cold_stats, warm_stats;
+  const std::vector<RelativePoseConstraint> cold =
+      AlignCloudPairs(clouds, started, options, &cold_stats);
+  ASSERT_EQ(cold.size(), 3u);
+  const std::vector<RelativePoseConstraint> warm =
+      AlignCloudPairs(clouds, started, options, &warm_stats, &cold);
+  ASSERT_EQ(warm.size(), cold.size());
+  EXPECT_LT(warm_stats.iterations, cold_stats.iterations / 2)
+      << warm_stats.iterations << " against " << cold_stats.iterations;
+  for (size_t k = 0; k < cold.size(); ++k) {
+    EXPECT_EQ(warm[k].frame_i, cold[k].frame_i);
+    EXPECT_EQ(warm[k].frame_j, cold[k].frame_j);
+    const Eigen::Isometry3d D = cold[k].T_sj_si.inverse() * warm[k].T_sj_si;
+    EXPECT_LT(D.translation().norm(), 2e-4) << k;
+    EXPECT_LT(Eigen::AngleAxisd(D.linear()).angle(), 2e-4) << k;
+  }
+}
+
 TEST(DepthAlignmentTest, CloudsAreSampledDenselyOnlyWhereTheirErrorsAreIndependent) {
   const RangeImager range = testing_core::KinectRangeImager();
   std::map<int, Eigen::Isometry3d> truth;
