@@ -533,7 +533,8 @@ void BundleAdjustmentRun::Collect(int anchor_id, std::chrono::steady_clock::time
   std::set<int64_t> observed_features;
   for (const auto& [feature_id, uses] : feature_uses_) observed_features.insert(feature_id);
   if (options_.compute_covariances && result.usable && !result.interrupted &&
-      !observed_frames.empty()) {
+      !observed_frames.empty() &&
+      (!options_.covariances_wanted || options_.covariances_wanted(result))) {
     const auto covariance_start = std::chrono::steady_clock::now();
     ComputePoseCovariances(&ceres_problem_, &params_, anchor_id, observed_frames, observed_features,
                            options_, &result);

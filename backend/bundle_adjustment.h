@@ -50,6 +50,8 @@ constexpr int kDenseSchurAlwaysPoses = 200;
 constexpr int kDenseSchurMaxPoses = 1500;
 constexpr double kDenseSchurMinDensity = 0.2;
 
+struct BundleAdjustmentResult;
+
 struct BundleAdjustmentOptions {
   int max_iterations = 100;
   // A solve stops after a successful step that lowered the cost by less than this, in the
@@ -114,6 +116,10 @@ struct BundleAdjustmentOptions {
   // Polled before each solve and after each iteration (not an option: no key, not reported):
   // true ends the solve there, the result then `interrupted`.
   std::function<bool()> stop;
+  // With compute_covariances, asked once after the last solve with the result so far (poses,
+  // features, rejections): false leaves the covariances out (not an option: no key). A
+  // caller that solves again from the result and keeps only the last uses it.
+  std::function<bool(const BundleAdjustmentResult&)> covariances_wanted;
 
   // The options' registration: keys, help, checks (core/option_table.h).
   static const OptionTable<BundleAdjustmentOptions>& Table();

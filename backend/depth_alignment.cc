@@ -509,14 +509,35 @@ BundleAdjustmentResult SolveWithDepthAlignment(BundleAdjustmentProblem problem,
       c.sqrt_information /= std::sqrt(variance_factor);
     }
     s->seconds_alignment += SecondsSince(align_start);
+    // The step the round after this one samples at, and whether the alternation ends with
+    // `solved`: at the last round, or when no pose moved by convergence_m and the sampling
+    // stays. Covariances are for the result that stands at the end, so only that solve
+    // computes them.
+    const auto next_step = [&](const BundleAdjustmentResult& solved) {
+      return NextSampleStep(round_options.sample_step,
+                            variance_factor * solved.relative_pose_variance_factor, s->constraints,
+                            solved, ba_options, options);
+    };
+    const auto ends_with = [&](const BundleAdjustmentResult& solved) {
+      return round + 1 == options.rounds ||
+             (next_step(solved) == round_options.sample_step &&
+              LargestPoseChange(problem.T_w_c, solved.T_w_c) < options.convergence_m);
+    };
+    BundleAdjustmentOptions round_ba = ba_options;
+    round_ba.covariances_wanted = ends_with;
     const auto ba_start = std::chrono::steady_clock::now();
-    BundleAdjustmentResult solved = SolveBundleAdjustment(problem, camera, ba_options);
+    BundleAdjustmentResult solved = SolveBundleAdjustment(problem, camera, round_ba);
     s->seconds_ba += SecondsSince(ba_start);
     ++s->rounds;
     // A round whose solve failed is dropped: the last usable one stands (the caller sees
-    // usable == false only when the first round failed).
+    // usable == false only when the first round failed), without covariances.
     if (!solved.usable) {
-      if (round == 0) stand(std::move(solved));
+      if (round == 0) {
+        stand(std::move(solved));
+      } else if (ba_options.compute_covariances && result.covariance_error.empty()) {
+        result.covariance_error =
+            "not computed: the depth-aligned round after it failed (" + solved.termination + ")";
+      }
       break;
     }
     if (solved.interrupted) {
@@ -524,18 +545,14 @@ BundleAdjustmentResult SolveWithDepthAlignment(BundleAdjustmentProblem problem,
       result.interrupted = true;
       break;
     }
+    const bool last = ends_with(solved);
+    const int step = next_step(solved);
     stand(std::move(solved));
     variance_factor = s->variance_factor;
-    const double change = LargestPoseChange(problem.T_w_c, result.T_w_c);
+    if (last) break;
     problem.T_w_c = result.T_w_c;
     problem.p_w = result.p_w;
-    const int next_step = NextSampleStep(round_options.sample_step, variance_factor, s->constraints,
-                                         result, ba_options, options);
-    if (next_step != round_options.sample_step) {
-      round_options.sample_step = next_step;
-    } else if (change < options.convergence_m) {
-      break;
-    }
+    round_options.sample_step = step;
   }
   return result;
 }

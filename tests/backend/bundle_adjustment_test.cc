@@ -796,6 +796,28 @@ TEST(BundleAdjustmentTest, SchurCovariancesEqualCeresCovariance) {
   }
 }
 
+// covariances_wanted sees the solved result (its poses) and decides whether the covariances
+// are computed; without it they are.
+TEST(BundleAdjustmentTest, CovariancesAreComputedOnlyWhenWanted) {
+  std::mt19937 rng(6);
+  const TestScene scene = MakeTestScene(8, 80, &rng);
+  const BundleAdjustmentProblem problem = MakeTestProblem(scene, 0.03, 0.02, 0.05, true, &rng);
+  for (const bool wanted : {false, true}) {
+    BundleAdjustmentOptions options;
+    int asked = 0;
+    options.covariances_wanted = [&](const BundleAdjustmentResult& solved) {
+      ++asked;
+      EXPECT_EQ(solved.T_w_c.size(), scene.poses.size());
+      return wanted;
+    };
+    const BundleAdjustmentResult result = SolveBundleAdjustment(problem, scene.camera, options);
+    ASSERT_TRUE(result.usable) << result.termination;
+    EXPECT_EQ(asked, 1);
+    EXPECT_EQ(result.pose_covariances.size(), wanted ? scene.poses.size() : 0u);
+    EXPECT_TRUE(result.covariance_error.empty()) << result.covariance_error;
+  }
+}
+
 // The residual check without ground truth: with Q right (the noise drawn from it), each
 // component's robust sigma comes out near sqrt(redundancy); with Q claiming twice the noise,
 // exactly half of that (the solution is the same, each error is measured in a doubled sigma).

@@ -189,6 +189,8 @@ TEST(DepthAlignmentTest, RefinementWithCloudsAloneRecoversThePoses) {
   ASSERT_TRUE(result.usable) << result.termination;
   EXPECT_EQ(stats.constraints, 6);  // every pair overlaps
   EXPECT_GE(stats.rounds, 1);
+  // The covariances of the round that stands (the earlier rounds' are not computed).
+  EXPECT_EQ(result.pose_covariances.size(), truth.size()) << result.covariance_error;
   // From up to 2.6 cm and 0.9 deg off to within a millimetre and a tenth of a degree (the
   // pairs' alignments are exact to ~0.2 mm; creases at the box and the room's corners, which
   // the clouds blur over a grid cell, leave the rest).
