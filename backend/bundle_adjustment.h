@@ -72,8 +72,9 @@ struct BundleAdjustmentOptions {
   // filter's estimate, or the last solve after a round of rejections), where Gauss-Newton
   // converges in a step or two; damping at Ceres' default (1e4) holds back the weakly
   // observed directions, whose eigenvalues lie far below the diagonal, so the cost then
-  // falls by a few times per step instead. A step that does not lower the cost shrinks the
-  // region (by 2, 4, 8, ...: to Ceres' default within five failures).
+  // falls by a few times per step instead. A step that does not lower the cost, or that the
+  // linear solver cannot take, shrinks the region (by 2, 4, 8, ...: below Ceres' default
+  // after five such steps; ten in a row end the solve). From 1e-32 to 1e16.
   double initial_trust_region_radius = 1e8;
   // Huber on the whitened residual norm: quadratic up to `huber_scale` sigmas.
   BaRobustLoss robust_loss = BaRobustLoss::kNone;
@@ -116,9 +117,11 @@ struct BundleAdjustmentOptions {
   // Polled before each solve and after each iteration (not an option: no key, not reported):
   // true ends the solve there, the result then `interrupted`.
   std::function<bool()> stop;
-  // With compute_covariances, asked once after the last solve with the result so far (poses,
-  // features, rejections): false leaves the covariances out (not an option: no key). A
-  // caller that solves again from the result and keeps only the last uses it.
+  // With compute_covariances, asked once after the last solve with the result as it is
+  // returned (poses, features, rejections, the relative poses' weight), when that solve is
+  // usable, not interrupted and observes a frame: false leaves the covariances out (not an
+  // option: no key). A caller that solves again from the result and keeps only the last
+  // uses it.
   std::function<bool(const BundleAdjustmentResult&)> covariances_wanted;
 
   // The options' registration: keys, help, checks (core/option_table.h).
@@ -186,9 +189,9 @@ struct BundleAdjustmentResult {
   std::map<int, Eigen::Isometry3d> T_w_c;
   std::map<int, Vector6d> poses;  // the paper's (x, y, z, alpha, beta, gamma), IsometryToPose
   std::map<int64_t, Eigen::Vector3d> p_w;
-  // When options.compute_covariances: per pose, the covariance of (dt, phi) with
-  // t_true = t + dt and R_true = Exp(phi) R (phi a rotation vector in the world frame),
-  // translation first. The anchor's is zero.
+  // When options.compute_covariances (and covariances_wanted agrees): per pose, the
+  // covariance of (dt, phi) with t_true = t + dt and R_true = Exp(phi) R (phi a rotation
+  // vector in the world frame), translation first. The anchor's is zero.
   std::map<int, Matrix6d> pose_covariances;
   // The same, carried to the paper's Euler 6-vector (as the filter's PoseCovariance) by the
   // Jacobian of (alpha, beta, gamma) with respect to phi; NaN at gimbal lock.
@@ -204,7 +207,7 @@ struct BundleAdjustmentResult {
   double rejection_variance_factor = 1.0;
   // Relative poses dropped by the same gate at the same probability for 6 degrees of freedom
   // (22.46 for rejection_chi2 16.27), widened by their own variance factor; and per
-  // problem.relative_poses entry, whether the last solve kept it.
+  // problem.relative_poses entry, whether the last solve kept it (empty when none ran).
   int rejected_relative_poses = 0;
   std::vector<char> relative_pose_kept;
   // The relative poses' information was divided by this in the last solve that ran

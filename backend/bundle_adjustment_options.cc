@@ -90,7 +90,7 @@ const OptionTable<BundleAdjustmentOptions>& BundleAdjustmentOptions::Table() {
         .Min(0.0);
     t->Double("initial_trust_region_radius", &O::initial_trust_region_radius,
               "Levenberg-Marquardt's first trust region (its reciprocal: the first damping)")
-        .Above(0.0);
+        .Range(1e-32, 1e16);  // Ceres' minimum and maximum trust region
     t->Enum("linear_solver", &O::linear_solver, ParseBaLinearSolver, BaLinearSolverName,
             "auto|dense_schur|sparse_schur|sparse_normal_cholesky",
             "Ceres' linear solver (auto: dense Schur for few poses or a full system)");

@@ -436,7 +436,12 @@ std::vector<RelativePoseConstraint> AlignCloudPairs(
   std::vector<PairAlignment> aligned(pairs.size());
   ParallelFor(pairs.size(), options.num_threads, [&](size_t k) {
     const auto own = own_start.find(pairs[k]);
-    const bool converged_start = own != own_start.end();
+    // A pair's own start stands only within the coarse phase's gate of where the poses put
+    // it (rotations at 1 m): one further off may have settled in another basin, and the
+    // poses, which the other pairs and the features agree on, are the better guide there.
+    const bool converged_start =
+        own != own_start.end() &&
+        LargestPoseChange({{0, T_j_i[k]}}, {{0, own->second}}) < options.initial_gate_m;
     aligned[k] = Align(clouds.at(pairs[k].first), clouds.at(pairs[k].second),
                        converged_start ? own->second : T_j_i[k], options, converged_start);
   });
@@ -484,6 +489,14 @@ BundleAdjustmentResult SolveWithDepthAlignment(BundleAdjustmentProblem problem,
   // The first round samples the clouds at options.sample_step, later ones as NextSampleStep
   // finds; a round that samples more densely than the last is not skipped for convergence.
   DepthAlignmentOptions round_options = options;
+  // The result that stands when a later round does not: computed before it was known to be
+  // the last, it has no covariances, and says why.
+  const auto note_missing_covariances = [&](const std::string& why) {
+    if (ba_options.compute_covariances && result.pose_covariances.empty() &&
+        result.covariance_error.empty()) {
+      result.covariance_error = "not computed: " + why;
+    }
+  };
   const auto stand = [&](BundleAdjustmentResult&& solved) {
     s->variance_factor = variance_factor * solved.relative_pose_variance_factor;
     s->sample_step = round_options.sample_step;
@@ -491,6 +504,7 @@ BundleAdjustmentResult SolveWithDepthAlignment(BundleAdjustmentProblem problem,
   };
   for (int round = 0; round < options.rounds; ++round) {
     if (round > 0 && ba_options.stop && ba_options.stop()) {
+      note_missing_covariances("interrupted before the next depth-aligned round");
       result.interrupted = true;
       break;
     }
@@ -524,7 +538,10 @@ BundleAdjustmentResult SolveWithDepthAlignment(BundleAdjustmentProblem problem,
               LargestPoseChange(problem.T_w_c, solved.T_w_c) < options.convergence_m);
     };
     BundleAdjustmentOptions round_ba = ba_options;
-    round_ba.covariances_wanted = ends_with;
+    round_ba.covariances_wanted = [&](const BundleAdjustmentResult& solved) {
+      return ends_with(solved) &&
+             (!ba_options.covariances_wanted || ba_options.covariances_wanted(solved));
+    };
     const auto ba_start = std::chrono::steady_clock::now();
     BundleAdjustmentResult solved = SolveBundleAdjustment(problem, camera, round_ba);
     s->seconds_ba += SecondsSince(ba_start);
@@ -534,14 +551,18 @@ BundleAdjustmentResult SolveWithDepthAlignment(BundleAdjustmentProblem problem,
     if (!solved.usable) {
       if (round == 0) {
         stand(std::move(solved));
-      } else if (ba_options.compute_covariances && result.covariance_error.empty()) {
-        result.covariance_error =
-            "not computed: the depth-aligned round after it failed (" + solved.termination + ")";
+      } else {
+        note_missing_covariances("the depth-aligned round after it failed (" + solved.termination +
+                                 ")");
       }
       break;
     }
     if (solved.interrupted) {
-      if (round == 0) stand(std::move(solved));
+      if (round == 0) {
+        stand(std::move(solved));
+      } else {
+        note_missing_covariances("the depth-aligned round after it was interrupted");
+      }
       result.interrupted = true;
       break;
     }

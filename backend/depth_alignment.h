@@ -113,9 +113,9 @@ struct DepthAlignmentStats {
 
 // The constraints of every overlapping pair of clouds (frame ids of `clouds`) at the poses
 // T_w_c, i < j; clouds without a pose are ignored. A pair with a constraint in `starts`
-// (converged alignments, e.g. an earlier round's) is aligned from that constraint's T_sj_si
-// in the final phase only, instead of from T_w_c through the coarse phase; the pairs tried
-// are those T_w_c makes overlap either way.
+// (converged alignments, e.g. an earlier round's) within initial_gate_m of where T_w_c puts
+// it is aligned from that constraint's T_sj_si in the final phase only, instead of from T_w_c
+// through the coarse phase; the pairs tried are those T_w_c makes overlap either way.
 std::vector<RelativePoseConstraint> AlignCloudPairs(
     const std::map<int, RangeCloud>& clouds, const std::map<int, Eigen::Isometry3d>& T_w_c,
     const DepthAlignmentOptions& options, DepthAlignmentStats* stats = nullptr,
@@ -123,7 +123,11 @@ std::vector<RelativePoseConstraint> AlignCloudPairs(
 
 // The bundle adjustment of `problem` with the clouds' pairwise constraints added
 // (problem.relative_poses is replaced by them), alternated with the alignment for
-// options.rounds rounds (0: the bundle adjustment of `problem` as it is).
+// options.rounds rounds (0: the bundle adjustment of `problem` as it is). From the second
+// round on, the pairs the last solve kept are aligned from their own last alignment
+// (AlignCloudPairs' `starts`). Only the solve whose result stands computes covariances; when
+// a later round fails or is interrupted, the earlier result stands with covariance_error
+// saying why they are missing.
 BundleAdjustmentResult SolveWithDepthAlignment(BundleAdjustmentProblem problem,
                                                const PinholeCamera& camera,
                                                const std::map<int, RangeCloud>& clouds,

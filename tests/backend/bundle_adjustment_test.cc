@@ -693,7 +693,15 @@ TEST(BundleAdjustmentTest, GaussNewtonStartTakesNoMoreStepsToTheSameOptimum) {
     ASSERT_TRUE(damped.usable) << damped.termination;
     if (sigma == 1.0) EXPECT_LE(fast.iterations, damped.iterations);
     EXPECT_LT(std::abs(fast.final_cost - damped.final_cost), 0.005) << "start sigma x" << sigma;
+    // The option reaches the solver: heavily damped steps need many more iterations.
+    options.initial_trust_region_radius = 1e-2;
+    const BundleAdjustmentResult crawling = SolveBundleAdjustment(problem, scene.camera, options);
+    EXPECT_GT(crawling.iterations, fast.iterations + 3) << "start sigma x" << sigma;
   }
+  BundleAdjustmentOptions options;
+  options.initial_trust_region_radius = 1e17;  // above Ceres' maximum
+  std::string why;
+  EXPECT_FALSE(options.Check(&why));
 }
 
 // Dense and sparse Schur and the full normal equations solve the same problem to the same
@@ -805,14 +813,22 @@ TEST(BundleAdjustmentTest, CovariancesAreComputedOnlyWhenWanted) {
   for (const bool wanted : {false, true}) {
     BundleAdjustmentOptions options;
     int asked = 0;
+    BundleAdjustmentResult seen;
     options.covariances_wanted = [&](const BundleAdjustmentResult& solved) {
       ++asked;
-      EXPECT_EQ(solved.T_w_c.size(), scene.poses.size());
+      seen = solved;
       return wanted;
     };
     const BundleAdjustmentResult result = SolveBundleAdjustment(problem, scene.camera, options);
     ASSERT_TRUE(result.usable) << result.termination;
     EXPECT_EQ(asked, 1);
+    // What it was asked with is what comes back.
+    ASSERT_EQ(seen.T_w_c.size(), scene.poses.size());
+    for (const auto& [frame_id, T] : result.T_w_c) {
+      EXPECT_EQ(seen.T_w_c.at(frame_id).matrix(), T.matrix()) << frame_id;
+    }
+    EXPECT_EQ(seen.rejected.size(), result.rejected.size());
+    EXPECT_EQ(seen.relative_pose_variance_factor, result.relative_pose_variance_factor);
     EXPECT_EQ(result.pose_covariances.size(), wanted ? scene.poses.size() : 0u);
     EXPECT_TRUE(result.covariance_error.empty()) << result.covariance_error;
   }

@@ -210,12 +210,6 @@ TEST(DepthAlignmentTest, RefinementWithCloudsAloneRecoversThePoses) {
   }
 }
 
-// The clouds' sampling follows what their constraints show. Where the range errors are as
-// the noise model states (independent per pixel), the constraints are as precise as they
-// state and the later rounds sample twice as densely. Where each frame's depth is off by its
-// own scale (+-2%, within a Kinect's depth calibration error; correlated across the whole
-// image), the constraints disagree far beyond their stated precision (a variance factor of
-// about 25) and the sampling stays as it started.
 // A later round's pairs start from their own earlier alignments (SolveWithDepthAlignment
 // passes the ones its last solve kept): from there they take fewer steps and end where the
 // alignment from the poses does, within its convergence step.
@@ -250,8 +244,28 @@ TEST(DepthAlignmentTest, PairsStartedFromTheirOwnAlignmentEndThereInFewerSteps) 
     EXPECT_LT(D.translation().norm(), 2e-4) << k;
     EXPECT_LT(Eigen::AngleAxisd(D.linear()).angle(), 2e-4) << k;
   }
+  // A start further than the coarse phase's gate from where the poses put the pair is not
+  // taken: the alignment goes from the poses, as without starts.
+  std::vector<RelativePoseConstraint> far = cold;
+  for (RelativePoseConstraint& c : far) {
+    c.T_sj_si.translation() += Eigen::Vector3d(0.0, 0.0, 2.0 * options.initial_gate_m);
+  }
+  DepthAlignmentStats far_stats;
+  const std::vector<RelativePoseConstraint> from_poses =
+      AlignCloudPairs(clouds, started, options, &far_stats, &far);
+  ASSERT_EQ(from_poses.size(), cold.size());
+  EXPECT_EQ(far_stats.iterations, cold_stats.iterations);
+  for (size_t k = 0; k < cold.size(); ++k) {
+    EXPECT_EQ(from_poses[k].T_sj_si.matrix(), cold[k].T_sj_si.matrix()) << k;
+  }
 }
 
+// The clouds' sampling follows what their constraints show. Where the range errors are as
+// the noise model states (independent per pixel), the constraints are as precise as they
+// state and the later rounds sample twice as densely. Where each frame's depth is off by its
+// own scale (+-2%, within a Kinect's depth calibration error; correlated across the whole
+// image), the constraints disagree far beyond their stated precision (a variance factor of
+// about 25) and the sampling stays as it started.
 TEST(DepthAlignmentTest, CloudsAreSampledDenselyOnlyWhereTheirErrorsAreIndependent) {
   const RangeImager range = testing_core::KinectRangeImager();
   std::map<int, Eigen::Isometry3d> truth;
@@ -288,6 +302,9 @@ TEST(DepthAlignmentTest, CloudsAreSampledDenselyOnlyWhereTheirErrorsAreIndepende
         problem, range.camera, clouds, BundleAdjustmentOptions(), options, &stats);
     ASSERT_TRUE(result.usable) << result.termination;
     EXPECT_GE(stats.constraints, 20);
+    // Whether the rounds end by convergence (correlated) or at the last one, the result that
+    // stands has its covariances.
+    EXPECT_EQ(result.pose_covariances.size(), truth.size()) << result.covariance_error;
     if (correlated) {
       EXPECT_GT(stats.variance_factor, 10.0);
       EXPECT_EQ(stats.sample_step, options.sample_step);
