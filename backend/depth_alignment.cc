@@ -231,15 +231,18 @@ void Judge(const NormalEquations& eq, size_t samples, const DepthAlignmentOption
   }
 }
 
-// The largest change of any pose from `before` to `after` (frames of `after`): translation
-// in metres or rotation in radians, whichever is larger.
+// How far `after` is from `before`: translation in metres or rotation in radians, whichever
+// is larger.
+double PoseChange(const Eigen::Isometry3d& before, const Eigen::Isometry3d& after) {
+  const Eigen::Isometry3d D = before.inverse() * after;
+  return std::max(D.translation().norm(), Eigen::AngleAxisd(D.linear()).angle());
+}
+
+// The largest PoseChange of any pose from `before` to `after` (frames of `after`).
 double LargestPoseChange(const std::map<int, Eigen::Isometry3d>& before,
                          const std::map<int, Eigen::Isometry3d>& after) {
   double change = 0.0;
-  for (const auto& [frame, T] : after) {
-    const Eigen::Isometry3d D = before.at(frame).inverse() * T;
-    change = std::max({change, D.translation().norm(), Eigen::AngleAxisd(D.linear()).angle()});
-  }
+  for (const auto& [frame, T] : after) change = std::max(change, PoseChange(before.at(frame), T));
   return change;
 }
 
@@ -440,8 +443,7 @@ std::vector<RelativePoseConstraint> AlignCloudPairs(
     // it (rotations at 1 m): one further off may have settled in another basin, and the
     // poses, which the other pairs and the features agree on, are the better guide there.
     const bool converged_start =
-        own != own_start.end() &&
-        LargestPoseChange({{0, T_j_i[k]}}, {{0, own->second}}) < options.initial_gate_m;
+        own != own_start.end() && PoseChange(T_j_i[k], own->second) < options.initial_gate_m;
     aligned[k] = Align(clouds.at(pairs[k].first), clouds.at(pairs[k].second),
                        converged_start ? own->second : T_j_i[k], options, converged_start);
   });
@@ -469,6 +471,45 @@ std::vector<RelativePoseConstraint> AlignCloudPairs(
   return constraints;
 }
 
+namespace {
+
+// The result that stands when a later round does not: computed before it was known to be
+// the last, it has no covariances, and says why.
+void NoteMissingCovariances(const BundleAdjustmentOptions& ba_options, const std::string& why,
+                            BundleAdjustmentResult* result) {
+  if (ba_options.compute_covariances && result->pose_covariances.empty() &&
+      result->covariance_error.empty()) {
+    result->covariance_error = "not computed: " + why;
+  }
+}
+
+// A round's constraints at the poses of `problem`, their information divided by the variance
+// factor so far. The pairs that `last` (the last round's solve of `problem`) kept start from
+// their own alignment there: the poses that solve settled on are a compromise with the
+// features (centimetres from a pair's own optimum on real depth), and a start at that optimum
+// converges in a few fine steps.
+std::vector<RelativePoseConstraint> RoundConstraints(const std::map<int, RangeCloud>& clouds,
+                                                     const BundleAdjustmentProblem& problem,
+                                                     const BundleAdjustmentResult& last,
+                                                     const DepthAlignmentOptions& options,
+                                                     double variance_factor,
+                                                     DepthAlignmentStats* stats) {
+  const auto start = std::chrono::steady_clock::now();
+  std::vector<RelativePoseConstraint> kept;
+  for (size_t k = 0; k < problem.relative_poses.size(); ++k) {
+    if (k < last.relative_pose_kept.size() && last.relative_pose_kept[k]) {
+      kept.push_back(problem.relative_poses[k]);
+    }
+  }
+  std::vector<RelativePoseConstraint> constraints =
+      AlignCloudPairs(clouds, problem.T_w_c, options, stats, &kept);
+  for (RelativePoseConstraint& c : constraints) c.sqrt_information /= std::sqrt(variance_factor);
+  stats->seconds_alignment += SecondsSince(start);
+  return constraints;
+}
+
+}  // namespace
+
 BundleAdjustmentResult SolveWithDepthAlignment(BundleAdjustmentProblem problem,
                                                const PinholeCamera& camera,
                                                const std::map<int, RangeCloud>& clouds,
@@ -489,14 +530,6 @@ BundleAdjustmentResult SolveWithDepthAlignment(BundleAdjustmentProblem problem,
   // The first round samples the clouds at options.sample_step, later ones as NextSampleStep
   // finds; a round that samples more densely than the last is not skipped for convergence.
   DepthAlignmentOptions round_options = options;
-  // The result that stands when a later round does not: computed before it was known to be
-  // the last, it has no covariances, and says why.
-  const auto note_missing_covariances = [&](const std::string& why) {
-    if (ba_options.compute_covariances && result.pose_covariances.empty() &&
-        result.covariance_error.empty()) {
-      result.covariance_error = "not computed: " + why;
-    }
-  };
   const auto stand = [&](BundleAdjustmentResult&& solved) {
     s->variance_factor = variance_factor * solved.relative_pose_variance_factor;
     s->sample_step = round_options.sample_step;
@@ -504,29 +537,16 @@ BundleAdjustmentResult SolveWithDepthAlignment(BundleAdjustmentProblem problem,
   };
   for (int round = 0; round < options.rounds; ++round) {
     if (round > 0 && ba_options.stop && ba_options.stop()) {
-      note_missing_covariances("interrupted before the next depth-aligned round");
+      NoteMissingCovariances(ba_options, "interrupted before the next depth-aligned round",
+                             &result);
       result.interrupted = true;
       break;
     }
-    const auto align_start = std::chrono::steady_clock::now();
-    // The pairs the last solve kept start from their own alignment there: the poses that
-    // solve settled on are a compromise with the features (centimetres from a pair's own
-    // optimum on real depth), and a start at that optimum converges in a few fine steps.
-    std::vector<RelativePoseConstraint> kept;
-    for (size_t k = 0; k < problem.relative_poses.size(); ++k) {
-      if (k < result.relative_pose_kept.size() && result.relative_pose_kept[k]) {
-        kept.push_back(problem.relative_poses[k]);
-      }
-    }
-    problem.relative_poses = AlignCloudPairs(clouds, problem.T_w_c, round_options, s, &kept);
-    for (RelativePoseConstraint& c : problem.relative_poses) {
-      c.sqrt_information /= std::sqrt(variance_factor);
-    }
-    s->seconds_alignment += SecondsSince(align_start);
-    // The step the round after this one samples at, and whether the alternation ends with
-    // `solved`: at the last round, or when no pose moved by convergence_m and the sampling
-    // stays. Covariances are for the result that stands at the end, so only that solve
-    // computes them.
+    problem.relative_poses =
+        RoundConstraints(clouds, problem, result, round_options, variance_factor, s);
+    // The next round's step, and whether the alternation ends with `solved` (the last round,
+    // or no pose moved by convergence_m and the step stays): only that solve, whose result
+    // stands, computes covariances.
     const auto next_step = [&](const BundleAdjustmentResult& solved) {
       return NextSampleStep(round_options.sample_step,
                             variance_factor * solved.relative_pose_variance_factor, s->constraints,
@@ -546,24 +566,17 @@ BundleAdjustmentResult SolveWithDepthAlignment(BundleAdjustmentProblem problem,
     BundleAdjustmentResult solved = SolveBundleAdjustment(problem, camera, round_ba);
     s->seconds_ba += SecondsSince(ba_start);
     ++s->rounds;
-    // A round whose solve failed is dropped: the last usable one stands (the caller sees
-    // usable == false only when the first round failed), without covariances.
-    if (!solved.usable) {
-      if (round == 0) {
-        stand(std::move(solved));
-      } else {
-        note_missing_covariances("the depth-aligned round after it failed (" + solved.termination +
-                                 ")");
+    // A round whose solve failed or was interrupted is dropped: the last usable one stands
+    // (the caller sees usable == false only when the first round failed), without covariances.
+    if (!solved.usable || solved.interrupted) {
+      const bool interrupted = solved.usable;
+      const std::string why =
+          interrupted ? "was interrupted" : "failed (" + solved.termination + ")";
+      if (round > 0) {
+        NoteMissingCovariances(ba_options, "the depth-aligned round after it " + why, &result);
       }
-      break;
-    }
-    if (solved.interrupted) {
-      if (round == 0) {
-        stand(std::move(solved));
-      } else {
-        note_missing_covariances("the depth-aligned round after it was interrupted");
-      }
-      result.interrupted = true;
+      if (round == 0) stand(std::move(solved));
+      if (interrupted) result.interrupted = true;
       break;
     }
     const bool last = ends_with(solved);
