@@ -294,12 +294,17 @@ class BundleAdjustmentRun {
   };
   StopCallback stop_callback_{this};
 
-  // Ends the solve after a successful step that gained less than options.cost_tolerance.
+  // Ends the solve after a successful step that gained less than options.cost_tolerance, or
+  // whose gain the linear model missed by less than that: near the optimum the next step
+  // gains about what the model missed on this one, |1 - rho| times its gain (rho: the
+  // actual over the predicted decrease), so that step would not pass the tolerance either.
   class CostToleranceCallback : public ceres::IterationCallback {
    public:
     explicit CostToleranceCallback(double tolerance) : tolerance_(tolerance) {}
     ceres::CallbackReturnType operator()(const ceres::IterationSummary& summary) override {
-      return summary.iteration > 0 && summary.step_is_successful && summary.cost_change < tolerance_
+      if (summary.iteration == 0 || !summary.step_is_successful) return ceres::SOLVER_CONTINUE;
+      const double missed = std::abs(1.0 - summary.relative_decrease) * summary.cost_change;
+      return summary.cost_change < tolerance_ || missed < tolerance_
                  ? ceres::SOLVER_TERMINATE_SUCCESSFULLY
                  : ceres::SOLVER_CONTINUE;
     }

@@ -80,7 +80,7 @@ const OptionTable<BundleAdjustmentOptions>& BundleAdjustmentOptions::Table() {
             "relative poses' information divided by their own variance factor");
     t->Int("max_iterations", &O::max_iterations, "Levenberg-Marquardt iterations per solve").Min(1);
     t->Double("cost_tolerance", &O::cost_tolerance,
-              "a step gaining less cost (1/2 chi-square) ends a solve (0: off)")
+              "a step's gain or its model's miss below this ends a solve (1/2 chi-square; 0: off)")
         .Min(0.0);
     t->Double("function_tolerance", &O::function_tolerance,
               "relative cost decrease below which a solve stops")

@@ -4,6 +4,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <optional>
 #include <thread>
 
 #include <Eigen/Eigenvalues>
@@ -164,8 +165,13 @@ Eigen::Isometry3d SensorPose(const Eigen::Isometry3d& T_w_c, const RangeCloud& c
 // the bundle adjustment's terms to max_partners per frame however long the sequence.
 // Keeping the most overlapping ones instead would keep the nearest frames only; the far
 // ones, which see the same surfaces after a loop, are the ones that remove drift.
+// A run that holds `preferred` pairs keeps the most overlapping of those instead: which of
+// a run's pairs overlaps most changes with millimetre moves of the poses, and a pair chosen
+// anew is aligned from the poses through the coarse phase, where a preferred one (an
+// earlier round's, started from its own alignment) converges in a step or two.
 std::vector<char> SpreadPartners(const std::vector<std::pair<size_t, size_t>>& all_pairs,
-                                 const std::vector<double>& overlap, size_t num_frames,
+                                 const std::vector<double>& overlap,
+                                 const std::vector<char>& preferred, size_t num_frames,
                                  const DepthAlignmentOptions& options) {
   std::vector<std::vector<size_t>> partners(num_frames);  // pair indices, in frame order
   for (size_t k = 0; k < all_pairs.size(); ++k) {
@@ -185,7 +191,11 @@ std::vector<char> SpreadPartners(const std::vector<std::pair<size_t, size_t>>& a
       const size_t begin = run * list.size() / runs, end = (run + 1) * list.size() / runs;
       size_t best = list[begin];
       for (size_t m = begin + 1; m < end; ++m) {
-        if (overlap[list[m]] > overlap[best]) best = list[m];
+        const size_t k = list[m];
+        if (preferred[k] != preferred[best] ? preferred[k] > preferred[best]
+                                            : overlap[k] > overlap[best]) {
+          best = k;
+        }
       }
       keep[best] = 1;
     }
@@ -320,6 +330,30 @@ const OptionTable<DepthAlignmentOptions>& DepthAlignmentOptions::Table() {
 
 namespace {
 
+// Per pair of frame indices in `all_pairs`, the pair's own start from `starts` (frame ids
+// by `frames`, sensor poses T_w_s), if it has one. A start stands only within
+// `gate_m` of where the poses put the pair (rotations at 1 m): one further off may have
+// settled in another basin, and the poses, which the other pairs and the features agree
+// on, are the better guide there.
+std::vector<std::optional<Eigen::Isometry3d>> OwnStarts(
+    const std::vector<std::pair<size_t, size_t>>& all_pairs, const std::vector<int>& frames,
+    const std::vector<Eigen::Isometry3d>& T_w_s, const std::vector<RelativePoseConstraint>* starts,
+    double gate_m) {
+  std::map<std::pair<int, int>, Eigen::Isometry3d> own_start;
+  if (starts != nullptr) {
+    for (const RelativePoseConstraint& c : *starts) own_start[{c.frame_i, c.frame_j}] = c.T_sj_si;
+  }
+  std::vector<std::optional<Eigen::Isometry3d>> start_of(all_pairs.size());
+  for (size_t k = 0; k < all_pairs.size() && !own_start.empty(); ++k) {
+    const auto [a, b] = all_pairs[k];
+    const auto own = own_start.find({frames[a], frames[b]});
+    if (own != own_start.end() && PoseChange(T_w_s[b].inverse() * T_w_s[a], own->second) < gate_m) {
+      start_of[k] = own->second;
+    }
+  }
+  return start_of;
+}
+
 // AlignRangeClouds; `converged_start` says T_t_s_initial is the pair's own earlier
 // alignment, already in the final phase's basin, and the coarse phase is skipped.
 PairAlignment Align(const RangeCloud& source, const RangeCloud& target,
@@ -423,29 +457,26 @@ std::vector<RelativePoseConstraint> AlignCloudPairs(
     overlap[k] = static_cast<double>(count) / coarse_samples[a].size();
   });
   if (stats != nullptr) stats->seconds_screen += SecondsSince(screen_start);
-  const std::vector<char> keep = SpreadPartners(all_pairs, overlap, frames.size(), options);
+  const std::vector<std::optional<Eigen::Isometry3d>> start_of =
+      OwnStarts(all_pairs, frames, T_w_s, starts, options.initial_gate_m);
+  std::vector<char> has_start(all_pairs.size(), 0);
+  for (size_t k = 0; k < all_pairs.size(); ++k) has_start[k] = start_of[k].has_value();
+  const std::vector<char> keep =
+      SpreadPartners(all_pairs, overlap, has_start, frames.size(), options);
   std::vector<std::pair<int, int>> pairs;
-  std::vector<Eigen::Isometry3d> T_j_i;
+  std::vector<Eigen::Isometry3d> from;  // the own start, else where the poses put the pair
+  std::vector<char> own;
   for (size_t k = 0; k < all_pairs.size(); ++k) {
     if (!keep[k]) continue;
     const auto [a, b] = all_pairs[k];
     pairs.emplace_back(frames[a], frames[b]);
-    T_j_i.push_back(T_w_s[b].inverse() * T_w_s[a]);
-  }
-  std::map<std::pair<int, int>, Eigen::Isometry3d> own_start;
-  if (starts != nullptr) {
-    for (const RelativePoseConstraint& c : *starts) own_start[{c.frame_i, c.frame_j}] = c.T_sj_si;
+    own.push_back(has_start[k]);
+    from.push_back(start_of[k].value_or(T_w_s[b].inverse() * T_w_s[a]));
   }
   std::vector<PairAlignment> aligned(pairs.size());
   ParallelFor(pairs.size(), options.num_threads, [&](size_t k) {
-    const auto own = own_start.find(pairs[k]);
-    // A pair's own start stands only within the coarse phase's gate of where the poses put
-    // it (rotations at 1 m): one further off may have settled in another basin, and the
-    // poses, which the other pairs and the features agree on, are the better guide there.
-    const bool converged_start =
-        own != own_start.end() && PoseChange(T_j_i[k], own->second) < options.initial_gate_m;
-    aligned[k] = Align(clouds.at(pairs[k].first), clouds.at(pairs[k].second),
-                       converged_start ? own->second : T_j_i[k], options, converged_start);
+    aligned[k] =
+        Align(clouds.at(pairs[k].first), clouds.at(pairs[k].second), from[k], options, own[k]);
   });
 
   std::vector<RelativePoseConstraint> constraints;

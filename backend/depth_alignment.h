@@ -115,7 +115,8 @@ struct DepthAlignmentStats {
 // T_w_c, i < j; clouds without a pose are ignored. A pair with a constraint in `starts`
 // (converged alignments, e.g. an earlier round's) within initial_gate_m of where T_w_c puts
 // it is aligned from that constraint's T_sj_si in the final phase only, instead of from T_w_c
-// through the coarse phase; the pairs tried are those T_w_c makes overlap either way.
+// through the coarse phase; the pairs tried are those T_w_c makes overlap either way, and
+// where a frame chooses among overlapping partners, those with such a start come first.
 std::vector<RelativePoseConstraint> AlignCloudPairs(
     const std::map<int, RangeCloud>& clouds, const std::map<int, Eigen::Isometry3d>& T_w_c,
     const DepthAlignmentOptions& options, DepthAlignmentStats* stats = nullptr,

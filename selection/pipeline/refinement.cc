@@ -71,7 +71,14 @@ Refinement Refine(const BundleAdjustmentProblem& problem, const PinholeCamera& c
                   const DepthAlignmentOptions& depth, const RangeClouds* clouds) {
   Refinement refinement;
   const auto start = std::chrono::steady_clock::now();
-  refinement.smoothed = SolveBundleAdjustment(problem, camera, ba);
+  // With clouds to align, the depth-aligned solve is the refinement and brings its own
+  // covariances: the features' solve computes its own only if that one turns out unusable.
+  const bool clouds_given = clouds != nullptr && depth.rounds > 0 && !clouds->clouds.empty();
+  BundleAdjustmentOptions features_ba = ba;
+  if (clouds_given) {
+    features_ba.covariances_wanted = [](const BundleAdjustmentResult&) { return false; };
+  }
+  refinement.smoothed = SolveBundleAdjustment(problem, camera, features_ba);
   if (problem.observations.empty()) {
     refinement.failure = "the problem has no observations";
   } else if (refinement.smoothed.interrupted) {
@@ -79,8 +86,7 @@ Refinement Refine(const BundleAdjustmentProblem& problem, const PinholeCamera& c
   } else if (!refinement.smoothed.usable || refinement.smoothed.num_residuals == 0) {
     refinement.failure = "the bundle adjustment failed (" + refinement.smoothed.termination + ")";
   }
-  refinement.depth_alignment_tried =
-      clouds != nullptr && depth.rounds > 0 && !clouds->clouds.empty() && refinement.ok();
+  refinement.depth_alignment_tried = clouds_given && refinement.ok();
   if (refinement.depth_alignment_tried) {
     BundleAdjustmentProblem started = problem;
     started.T_w_c = refinement.smoothed.T_w_c;
@@ -96,6 +102,13 @@ Refinement Refine(const BundleAdjustmentProblem& problem, const PinholeCamera& c
       refinement.warnings.push_back("the depth-aligned refinement failed (" +
                                     refinement.depth_aligned.termination +
                                     "); refined.tum is the bundle adjustment of the features");
+      // The same solve again (the same result), now with the covariances it left out.
+      if (ba.compute_covariances) {
+        refinement.smoothed = SolveBundleAdjustment(problem, camera, ba);
+        if (refinement.smoothed.interrupted) {
+          refinement.failure = "the bundle adjustment was interrupted";
+        }
+      }
     }
   }
   refinement.seconds = SecondsSince(start);

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <random>
 
 #include <Eigen/Eigenvalues>
@@ -258,6 +259,44 @@ TEST(DepthAlignmentTest, PairsStartedFromTheirOwnAlignmentEndThereInFewerSteps) 
   for (size_t k = 0; k < cold.size(); ++k) {
     EXPECT_EQ(from_poses[k].T_sj_si.matrix(), cold[k].T_sj_si.matrix()) << k;
   }
+}
+
+// Each frame keeps the most overlapping partner of each run of its partners, but a run
+// holding a pair with its own converged alignment keeps that pair instead: the choice then
+// stays put from round to round where the poses move by millimetres. Three frames along a
+// turn, one partner each: the neighbours overlap most, so the outer pair is chosen only as
+// a pair with a start.
+TEST(DepthAlignmentTest, APairWithItsOwnAlignmentIsKeptOverAMoreOverlappingOne) {
+  const RangeImager range = testing_core::KinectRangeImager();
+  const std::map<int, Eigen::Isometry3d> T_w_c = {{0, Pose(0.0, 0.0, 0.0, 0.0, 0.0)},
+                                                  {1, Pose(0.05, 0.0, 0.0, 6.0, 0.0)},
+                                                  {2, Pose(0.1, 0.0, 0.0, 12.0, 0.0)}};
+  std::map<int, RangeCloud> clouds;
+  for (const auto& [frame, T] : T_w_c) clouds[frame] = Cloud(range, T);
+  DepthAlignmentOptions options;
+  options.max_partners = 1;
+  const auto has_pair = [](const std::vector<RelativePoseConstraint>& constraints, int i, int j) {
+    return std::any_of(
+        constraints.begin(), constraints.end(),
+        [&](const RelativePoseConstraint& c) { return c.frame_i == i && c.frame_j == j; });
+  };
+  const std::vector<RelativePoseConstraint> chosen = AlignCloudPairs(clouds, T_w_c, options);
+  ASSERT_FALSE(chosen.empty());
+  EXPECT_FALSE(has_pair(chosen, 0, 2));
+  RelativePoseConstraint outer;
+  outer.frame_i = 0;
+  outer.frame_j = 2;
+  outer.T_sj_si = T_w_c.at(2).inverse() * T_w_c.at(0);  // the range imager is the camera
+  std::vector<RelativePoseConstraint> starts = {outer};
+  DepthAlignmentStats stats;
+  const std::vector<RelativePoseConstraint> kept =
+      AlignCloudPairs(clouds, T_w_c, options, &stats, &starts);
+  EXPECT_TRUE(has_pair(kept, 0, 2));
+  // Frames 0 and 2 both keep the outer pair; frame 1 keeps one of its neighbours.
+  EXPECT_EQ(stats.pairs_tried, 2);
+  // A start beyond the gate is no start: the choice is the one without.
+  starts.front().T_sj_si.translation().z() += 2.0 * options.initial_gate_m;
+  EXPECT_FALSE(has_pair(AlignCloudPairs(clouds, T_w_c, options, nullptr, &starts), 0, 2));
 }
 
 // The clouds' sampling follows what their constraints show. Where the range errors are as

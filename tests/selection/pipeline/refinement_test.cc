@@ -90,5 +90,40 @@ TEST(RefinementTest, AStopRequestInterruptsTheSolveAndIsAFailure) {
                   .ok());
 }
 
+// Given clouds, the depth-aligned solve is the refinement and computes the covariances; the
+// features' solve before it leaves its own out. Clouds without a valid point give no pairs,
+// so the depth-aligned solve is the features' again, which its result must show.
+TEST(RefinementTest, OnlyTheSolveThatIsTheRefinementComputesCovariances) {
+  SimulatedDataset data;
+  const PipelineResult filtered = FilteredSimulation(&data);
+  RangeClouds clouds;
+  for (const auto& [frame, T] : filtered.problem.T_w_c) {
+    RangeCloud& cloud = clouds.clouds[frame];
+    cloud.grid = data.camera;
+    const size_t cells = static_cast<size_t>(cloud.grid.width) * cloud.grid.height;
+    cloud.p_r.assign(cells, Eigen::Vector3f::Constant(std::nanf("")));
+    cloud.n_r = cloud.p_r;
+    cloud.sigma_m.assign(cells, 0.0f);
+  }
+  const Refinement refinement = Refine(filtered.problem, data.camera, filtered.estimate,
+                                       BundleAdjustmentOptions(), DepthAlignmentOptions(), &clouds);
+  ASSERT_TRUE(refinement.ok()) << refinement.failure;
+  ASSERT_TRUE(refinement.depth_alignment_used);
+  EXPECT_EQ(refinement.depth_stats.constraints, 0);
+  EXPECT_EQ(&refinement.refined(), &refinement.depth_aligned);
+  EXPECT_TRUE(refinement.smoothed.pose_covariances.empty());
+  EXPECT_TRUE(refinement.smoothed.covariance_error.empty()) << refinement.smoothed.covariance_error;
+  ASSERT_EQ(refinement.depth_aligned.pose_covariances.size(), filtered.problem.T_w_c.size());
+  // Without clouds the features' solve is the refinement, with its covariances: the same as
+  // the depth-aligned solve's above, which solved the same problem from the same start.
+  const Refinement features_only = Refine(filtered.problem, data.camera, filtered.estimate,
+                                          BundleAdjustmentOptions(), DepthAlignmentOptions());
+  ASSERT_EQ(features_only.smoothed.pose_covariances.size(), filtered.problem.T_w_c.size());
+  for (const auto& [frame, P] : features_only.smoothed.pose_covariances) {
+    EXPECT_TRUE(P.isApprox(refinement.depth_aligned.pose_covariances.at(frame), 1e-3))
+        << "frame " << frame;
+  }
+}
+
 }  // namespace
 }  // namespace ieslam
