@@ -295,24 +295,43 @@ class BundleAdjustmentRun {
   StopCallback stop_callback_{this};
 
   // Ends the solve after a successful step that gained less than options.cost_tolerance, or
-  // whose gain the linear model missed by less than that: near the optimum the next step
-  // gains about what the model missed on this one, |1 - rho| times its gain (rho: the
-  // actual over the predicted decrease), so that step would not pass the tolerance either.
+  // after a Gauss-Newton step whose gain the linear model missed by less than that. Near the
+  // optimum the next Gauss-Newton step gains about what the model missed on this one,
+  // |1 - rho| times its gain (rho: the actual over the predicted decrease), so it would end
+  // the solve at about the same point. That holds for undamped steps only: a damped step is
+  // short and nearly linear (rho ~ 1) however far it stops from the optimum. So the second
+  // test applies only while the solve started nearly as Gauss-Newton (a trust region of at
+  // least kGaussNewtonRadius) and no step has failed, which would have shrunk the region.
   class CostToleranceCallback : public ceres::IterationCallback {
    public:
-    explicit CostToleranceCallback(double tolerance) : tolerance_(tolerance) {}
+    CostToleranceCallback(double tolerance, double initial_radius)
+        : tolerance_(tolerance), gauss_newton_start_(initial_radius >= kGaussNewtonRadius) {}
     ceres::CallbackReturnType operator()(const ceres::IterationSummary& summary) override {
-      if (summary.iteration == 0 || !summary.step_is_successful) return ceres::SOLVER_CONTINUE;
+      if (summary.iteration == 0) {  // a new solve
+        damped_ = !gauss_newton_start_;
+        return ceres::SOLVER_CONTINUE;
+      }
+      if (!summary.step_is_successful) {
+        damped_ = true;
+        return ceres::SOLVER_CONTINUE;
+      }
       const double missed = std::abs(1.0 - summary.relative_decrease) * summary.cost_change;
-      return summary.cost_change < tolerance_ || missed < tolerance_
+      return summary.cost_change < tolerance_ || (!damped_ && missed < tolerance_)
                  ? ceres::SOLVER_TERMINATE_SUCCESSFULLY
                  : ceres::SOLVER_CONTINUE;
     }
 
    private:
+    // Levenberg-Marquardt's damping is the reciprocal of the radius relative to the
+    // Jacobi-scaled diagonal: at 1e6 a step is Gauss-Newton's but in directions a million
+    // times weaker than the diagonal.
+    static constexpr double kGaussNewtonRadius = 1e6;
     double tolerance_;
+    bool gauss_newton_start_;
+    bool damped_ = false;
   };
-  CostToleranceCallback cost_tolerance_callback_{options_.cost_tolerance};
+  CostToleranceCallback cost_tolerance_callback_{options_.cost_tolerance,
+                                                 options_.initial_trust_region_radius};
 };
 
 void BundleAdjustmentRun::AddObservations() {

@@ -60,10 +60,10 @@ struct BundleAdjustmentOptions {
   // gains 0.005 leaves the estimate about sqrt(2 * 0.005) = 0.1 sigma (Mahalanobis, in all
   // parameters together) from the optimum: far below the noise the result is judged by,
   // whatever the problem's size. A relative tolerance alone stops later the larger the
-  // problem (its cost grows with the observations). A solve also stops after a step whose
-  // gain the linear model predicted to within this: the next step's gain is about what the
-  // model missed, so it would stop there, one linear solve later, at about the same point.
-  // 0: only the tolerances below.
+  // problem (its cost grows with the observations). A solve started as Gauss-Newton (below)
+  // also stops after an undamped step whose gain the linear model predicted to within this:
+  // near the optimum the next step gains about what the model missed, so it would stop
+  // there, one linear solve later, at about the same point. 0: only the tolerances below.
   double cost_tolerance = 0.005;
   // Relative cost decrease below which Levenberg-Marquardt stops. Tighter than Ceres'
   // default (1e-6) because the result is a reference for the filter, not a quick fix.

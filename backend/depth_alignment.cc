@@ -600,7 +600,7 @@ BundleAdjustmentResult SolveWithDepthAlignment(BundleAdjustmentProblem problem,
     // A round whose solve failed or was interrupted is dropped: the last usable one stands
     // (the caller sees usable == false only when the first round failed), without covariances.
     if (!solved.usable || solved.interrupted) {
-      const bool interrupted = solved.usable;
+      const bool interrupted = solved.interrupted;
       const std::string why =
           interrupted ? "was interrupted" : "failed (" + solved.termination + ")";
       if (round > 0) {

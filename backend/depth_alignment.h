@@ -116,7 +116,8 @@ struct DepthAlignmentStats {
 // (converged alignments, e.g. an earlier round's) within initial_gate_m of where T_w_c puts
 // it is aligned from that constraint's T_sj_si in the final phase only, instead of from T_w_c
 // through the coarse phase; the pairs tried are those T_w_c makes overlap either way, and
-// where a frame chooses among overlapping partners, those with such a start come first.
+// within each run of a frame's partners (DepthAlignmentOptions::max_partners), a pair with
+// such a start is kept over more overlapping ones.
 std::vector<RelativePoseConstraint> AlignCloudPairs(
     const std::map<int, RangeCloud>& clouds, const std::map<int, Eigen::Isometry3d>& T_w_c,
     const DepthAlignmentOptions& options, DepthAlignmentStats* stats = nullptr,

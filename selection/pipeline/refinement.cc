@@ -78,14 +78,17 @@ Refinement Refine(const BundleAdjustmentProblem& problem, const PinholeCamera& c
   if (clouds_given) {
     features_ba.covariances_wanted = [](const BundleAdjustmentResult&) { return false; };
   }
+  // Why the features' solve is no refinement (empty if it is one).
+  const auto features_failure = [&problem](const BundleAdjustmentResult& solved) -> std::string {
+    if (problem.observations.empty()) return "the problem has no observations";
+    if (solved.interrupted) return "the bundle adjustment was interrupted";
+    if (!solved.usable || solved.num_residuals == 0) {
+      return "the bundle adjustment failed (" + solved.termination + ")";
+    }
+    return "";
+  };
   refinement.smoothed = SolveBundleAdjustment(problem, camera, features_ba);
-  if (problem.observations.empty()) {
-    refinement.failure = "the problem has no observations";
-  } else if (refinement.smoothed.interrupted) {
-    refinement.failure = "the bundle adjustment was interrupted";
-  } else if (!refinement.smoothed.usable || refinement.smoothed.num_residuals == 0) {
-    refinement.failure = "the bundle adjustment failed (" + refinement.smoothed.termination + ")";
-  }
+  refinement.failure = features_failure(refinement.smoothed);
   refinement.depth_alignment_tried = clouds_given && refinement.ok();
   if (refinement.depth_alignment_tried) {
     BundleAdjustmentProblem started = problem;
@@ -102,12 +105,11 @@ Refinement Refine(const BundleAdjustmentProblem& problem, const PinholeCamera& c
       refinement.warnings.push_back("the depth-aligned refinement failed (" +
                                     refinement.depth_aligned.termination +
                                     "); refined.tum is the bundle adjustment of the features");
-      // The same solve again (the same result), now with the covariances it left out.
+      // The same solve again, now with the covariances it left out (the same result with
+      // one solver thread; Ceres' threads may sum in another order).
       if (ba.compute_covariances) {
         refinement.smoothed = SolveBundleAdjustment(problem, camera, ba);
-        if (refinement.smoothed.interrupted) {
-          refinement.failure = "the bundle adjustment was interrupted";
-        }
+        refinement.failure = features_failure(refinement.smoothed);
       }
     }
   }

@@ -26,7 +26,9 @@ struct RangeClouds {
 };
 
 struct Refinement {
-  BundleAdjustmentResult smoothed;  // the bundle adjustment of the features
+  // The bundle adjustment of the features; without covariances when depth_aligned is used
+  // (that one is the refinement and has its own).
+  BundleAdjustmentResult smoothed;
   // The filter's estimate against `smoothed`.
   FilterSmootherComparison comparison;
   // Tried when clouds were given, the depth options ask for rounds and `smoothed` is usable;
@@ -39,7 +41,7 @@ struct Refinement {
   int depth_frames_left_out = 0;
   // Where depth_aligned differs from smoothed (when tried).
   FilterSmootherComparison change_from_smoothed;
-  double seconds = 0.0;  // both solves
+  double seconds = 0.0;  // every solve
   std::vector<std::string> warnings;
   // Why there is no refinement to use: the problem has no observations, the bundle
   // adjustment's solve is not usable, or it was interrupted (ba.stop); empty when refined()

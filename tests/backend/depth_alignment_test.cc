@@ -261,6 +261,45 @@ TEST(DepthAlignmentTest, PairsStartedFromTheirOwnAlignmentEndThereInFewerSteps) 
   }
 }
 
+// A stop request, wherever it comes (before a round, at a solve's start or during its
+// iterations), leaves the alternation interrupted: a half-done refinement is no refinement.
+// Every poll of the request is tried as the first that says stop.
+TEST(DepthAlignmentTest, AStopAtAnyPollInterruptsTheAlternation) {
+  const RangeImager range = testing_core::KinectRangeImager();
+  const std::map<int, Eigen::Isometry3d> truth = {{0, Pose(0.0, 0.0, 0.0, 0.0, 0.0)},
+                                                  {3, Pose(0.2, 0.0, 0.1, 10.0, -3.0)}};
+  std::map<int, RangeCloud> clouds;
+  BundleAdjustmentProblem problem;
+  for (const auto& [frame, T] : truth) {
+    clouds[frame] = Cloud(range, T);
+    problem.T_w_c[frame] = frame == 0 ? T
+                                      : Perturb(T, Eigen::Vector3d(0.0, 0.01, 0.0),
+                                                Eigen::Vector3d(0.01, -0.005, 0.0));
+  }
+  problem.anchor_frame_id = 0;
+  DepthAlignmentOptions options;
+  options.rounds = 2;
+  options.convergence_m = 0.0;  // both rounds
+  int polls = 0;
+  BundleAdjustmentOptions ba;
+  ba.stop = [&polls] {
+    ++polls;
+    return false;
+  };
+  const BundleAdjustmentResult complete =
+      SolveWithDepthAlignment(problem, range.camera, clouds, ba, options);
+  ASSERT_TRUE(complete.usable && !complete.interrupted) << complete.termination;
+  const int all_polls = polls;
+  ASSERT_GT(all_polls, 4);
+  for (int first_stop = 1; first_stop <= all_polls; ++first_stop) {
+    polls = 0;
+    ba.stop = [&polls, first_stop] { return ++polls >= first_stop; };
+    const BundleAdjustmentResult stopped =
+        SolveWithDepthAlignment(problem, range.camera, clouds, ba, options);
+    EXPECT_TRUE(stopped.interrupted) << "stopped at poll " << first_stop << " of " << all_polls;
+  }
+}
+
 // Each frame keeps the most overlapping partner of each run of its partners, but a run
 // holding a pair with its own converged alignment keeps that pair instead: the choice then
 // stays put from round to round where the poses move by millimetres. Three frames along a
