@@ -165,14 +165,14 @@ Eigen::Isometry3d SensorPose(const Eigen::Isometry3d& T_w_c, const RangeCloud& c
 // the bundle adjustment's terms to max_partners per frame however long the sequence.
 // Keeping the most overlapping ones instead would keep the nearest frames only; the far
 // ones, which see the same surfaces after a loop, are the ones that remove drift.
-// A run that holds `preferred` pairs keeps the most overlapping of those instead: which of
-// a run's pairs overlaps most changes with millimetre moves of the poses, and a pair chosen
-// anew is aligned from the poses through the coarse phase, where a preferred one (an
-// earlier round's, started from its own alignment) converges in a step or two.
+// A run that holds pairs with an `own_start` (OwnStarts) keeps the most overlapping of those
+// instead: which of a run's pairs overlaps most changes with millimetre moves of the poses,
+// and a pair chosen anew is aligned from the poses through the coarse phase, where one
+// started from its own earlier alignment converges in a step or two.
 std::vector<char> SpreadPartners(const std::vector<std::pair<size_t, size_t>>& all_pairs,
                                  const std::vector<double>& overlap,
-                                 const std::vector<char>& preferred, size_t num_frames,
-                                 const DepthAlignmentOptions& options) {
+                                 const std::vector<std::optional<Eigen::Isometry3d>>& own_start,
+                                 size_t num_frames, const DepthAlignmentOptions& options) {
   std::vector<std::vector<size_t>> partners(num_frames);  // pair indices, in frame order
   for (size_t k = 0; k < all_pairs.size(); ++k) {
     if (overlap[k] < options.min_overlap) continue;
@@ -192,10 +192,8 @@ std::vector<char> SpreadPartners(const std::vector<std::pair<size_t, size_t>>& a
       size_t best = list[begin];
       for (size_t m = begin + 1; m < end; ++m) {
         const size_t k = list[m];
-        if (preferred[k] != preferred[best] ? preferred[k] > preferred[best]
-                                            : overlap[k] > overlap[best]) {
-          best = k;
-        }
+        const bool own = own_start[k].has_value(), best_own = own_start[best].has_value();
+        if (own != best_own ? own : overlap[k] > overlap[best]) best = k;
       }
       keep[best] = 1;
     }
@@ -457,26 +455,23 @@ std::vector<RelativePoseConstraint> AlignCloudPairs(
     overlap[k] = static_cast<double>(count) / coarse_samples[a].size();
   });
   if (stats != nullptr) stats->seconds_screen += SecondsSince(screen_start);
-  const std::vector<std::optional<Eigen::Isometry3d>> start_of =
+  const std::vector<std::optional<Eigen::Isometry3d>> own_start =
       OwnStarts(all_pairs, frames, T_w_s, starts, options.initial_gate_m);
-  std::vector<char> has_start(all_pairs.size(), 0);
-  for (size_t k = 0; k < all_pairs.size(); ++k) has_start[k] = start_of[k].has_value();
   const std::vector<char> keep =
-      SpreadPartners(all_pairs, overlap, has_start, frames.size(), options);
+      SpreadPartners(all_pairs, overlap, own_start, frames.size(), options);
   std::vector<std::pair<int, int>> pairs;
-  std::vector<Eigen::Isometry3d> from;  // the own start, else where the poses put the pair
-  std::vector<char> own;
+  std::vector<size_t> kept;  // indices into all_pairs, as `pairs`
   for (size_t k = 0; k < all_pairs.size(); ++k) {
     if (!keep[k]) continue;
-    const auto [a, b] = all_pairs[k];
-    pairs.emplace_back(frames[a], frames[b]);
-    own.push_back(has_start[k]);
-    from.push_back(start_of[k].value_or(T_w_s[b].inverse() * T_w_s[a]));
+    pairs.emplace_back(frames[all_pairs[k].first], frames[all_pairs[k].second]);
+    kept.push_back(k);
   }
   std::vector<PairAlignment> aligned(pairs.size());
-  ParallelFor(pairs.size(), options.num_threads, [&](size_t k) {
-    aligned[k] =
-        Align(clouds.at(pairs[k].first), clouds.at(pairs[k].second), from[k], options, own[k]);
+  ParallelFor(pairs.size(), options.num_threads, [&](size_t m) {
+    const auto [a, b] = all_pairs[kept[m]];
+    const std::optional<Eigen::Isometry3d>& own = own_start[kept[m]];
+    aligned[m] = Align(clouds.at(frames[a]), clouds.at(frames[b]),
+                       own.value_or(T_w_s[b].inverse() * T_w_s[a]), options, own.has_value());
   });
 
   std::vector<RelativePoseConstraint> constraints;
