@@ -28,7 +28,9 @@
 #             second half and one run over the whole sequence: keyframe ATE of both
 #   scale     (not with --quick) `ieslam run` on tum-fr1-rpy-300 and on `ieslam synth
 #             --frames 600/2000 --seed 5`, default threads and --threads 1: real-time factor
-#             (30 Hz), last-to-first quarter cost per frame, peak RSS and its growth per
+#             (30 Hz), last-to-first quarter cost per frame (and the last quarter's frames
+#             run on their own, which splits it into the map's size and the content), peak
+#             RSS and its growth per
 #             non-keyframe between 600 and 2,000 frames; `--refine` on tum-fr1-rpy-300 with the
 #             default selector and with `--selector interval --interval 1`; `simulate
 #             --buffers 3` with `filter: {iterative_recovery: 0}`. Once each. Renders the two
@@ -157,6 +159,11 @@ if [ "$quick" = 0 ]; then
   scale_run synth600 --dataset "$synth_dir/synth_600"
   scale_run synth2000 --dataset "$synth_dir/synth_2000"
   scale_run synth2000_threads1 --dataset "$synth_dir/synth_2000" --threads 1
+  # The last quarter's frames on their own (frames 225-299 of 300, 1500-1999 of 2,000):
+  # the same content without the map before them. Against the whole run's last quarter, the
+  # cost per frame that the map's size adds; against its first quarter, what the content does.
+  scale_run rpy_last_quarter --dataset "$rpy" --first 225
+  scale_run synth2000_last_quarter --dataset "$synth_dir/synth_2000" --first 1500
   scale_run rpy_refine --dataset "$rpy" --refine
   scale_run rpy_refine_interval1 --dataset "$rpy" --selector interval --interval 1 --refine
   printf 'filter:\n  iterative_recovery: 0\n' > "$out/exact_eif.yaml"

@@ -145,10 +145,22 @@ def scale_run(out, name):
 
 def scale(out):
     names = ("rpy", "rpy_threads1", "synth600", "synth2000", "synth2000_threads1", "rpy_refine",
-             "rpy_refine_interval1")
+             "rpy_refine_interval1", "rpy_last_quarter", "synth2000_last_quarter")
     runs = {name: scale_run(out, name) for name in names}
     if runs["rpy"] is None:
         return None
+    quarters = {}
+    for name in ("rpy", "synth2000"):
+        whole, alone = runs[name], runs[name + "_last_quarter"]
+        if not whole or not alone:
+            continue
+        whole_q = whole["seconds"].get("per_frame_by_quarter") or []
+        alone_q = alone["seconds"].get("per_frame_by_quarter") or []
+        if len(whole_q) == 4 and alone_q and whole_q[0] > 0 and whole_q[3] > 0:
+            # The quarters are equal in frames, so their mean is the run's cost per frame.
+            alone_per_frame = sum(alone_q) / len(alone_q)
+            quarters[name] = {"map_size": whole_q[3] / alone_per_frame,
+                              "content": alone_per_frame / whole_q[0]}
     short, long_ = runs["synth600"], runs["synth2000"]
     kb_per_frame = None
     if short and long_:
@@ -162,7 +174,8 @@ def scale(out):
         a, i = exact_table[0], exact_table[1]
         exact_ratios = {"time_ratio": i["seconds"] / a["seconds"],
                         "dim_ratio": i["state_dim"] / a["state_dim"]}
-    return {"runs": runs, "kb_per_non_keyframe": kb_per_frame, "simulate_exact": exact_ratios}
+    return {"runs": runs, "kb_per_non_keyframe": kb_per_frame, "simulate_exact": exact_ratios,
+            "last_quarter_split": quarters}
 
 
 def localize(out, name):
@@ -326,6 +339,12 @@ def main():
                 rtf_targets.get(name, ""), 2)
             row("%s: last / first quarter cost per frame" % label, r["last_to_first_quarter"],
                 "≤ 1.2" if name in ("rpy", "synth2000") else "", 2)
+            split = sc["last_quarter_split"].get(name)
+            if split:
+                row("%s: last quarter in the whole run / its frames run alone (the map's size)"
+                    % label, split["map_size"], "", 2)
+                row("%s: its frames run alone / the first quarter (the content)" % label,
+                    split["content"], "", 2)
             row("%s: peak RSS (MiB)" % label, r["peak_rss_mib"],
                 {"rpy": "≤ 250", "synth2000": "≤ 400"}.get(name, ""), 0)
             stages = ("registration", "selection", "filter", "map", "outputs", "other")
