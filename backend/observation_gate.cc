@@ -228,8 +228,12 @@ bool TestJointly(const InformationFilter& filter, const FeatureCovariance& known
   bool fitted = false;
   int dof = 0;
   double nis = 0.0;
-  bool testable = true;
-  bool tested = false;  // dof, nis and testable are those of the current kept set and fit
+  // Each test is a dense factorisation of the kept set's 3n x 3n innovation covariance, most
+  // of the gate's cost: the set is tested once as it stands and once after each change.
+  bool testable = JointNis(*terms, *kept, *obs, known, &dof, &nis);
+  const auto fails = [&] {
+    return testable && dof > 0 && nis > ChiSquareQuantile(options.joint_probability, dof);
+  };
   // A set that fails the joint test as a whole says the frame's noise is larger than Q
   // claims (blur, a colour/depth time offset under fast motion): its variance factor, the
   // NIS per degree of freedom, scales the frame's Q (never below the prior), and the
@@ -237,24 +241,17 @@ bool TestJointly(const InformationFilter& filter, const FeatureCovariance& known
   // covariance Q + J_f P_f J_f^T while only Q is scaled, so where the map's share matters
   // one scaling falls short; the gates truncate the tails it is estimated from too. Hence
   // it is re-estimated on the new kept set until the set passes.
-  for (int round = 0; options.adapt_noise && round < kNoiseRounds; ++round) {
-    testable = JointNis(*terms, *kept, *obs, known, &dof, &nis);
-    tested = true;
-    if (!testable || dof <= 0 || nis <= ChiSquareQuantile(options.joint_probability, dof)) break;
+  for (int round = 0; options.adapt_noise && round < kNoiseRounds && fails(); ++round) {
     const double scale = std::min(nis / dof, options.max_noise_scale / *noise_scale);
     if (!(scale > 1.0)) break;
     for (FeatureObservation& o : *obs) o.Q *= scale;
     *noise_scale *= scale;
     fitted = GateSingly(filter, *obs, known, options.gate_chi2, T, terms, kept, P_x) || fitted;
-    tested = false;
+    testable = JointNis(*terms, *kept, *obs, known, &dof, &nis);
   }
   // Then the worst observation against the fit of the rest goes, and the rest is refitted,
-  // until the set passes. (The set the scaling left is tested already; the test is a dense
-  // factorisation of its 3n x 3n innovation covariance, most of the gate's cost.)
-  for (; testable; ++stats->rejected_joint) {
-    if (!tested) testable = JointNis(*terms, *kept, *obs, known, &dof, &nis);
-    tested = false;
-    if (!testable || dof <= 0 || nis <= ChiSquareQuantile(options.joint_probability, dof)) break;
+  // until the set passes.
+  for (; fails(); ++stats->rejected_joint) {
     if (stats->rejected_joint == kMaxJointDrops ||
         std::count(kept->begin(), kept->end(), true) <= options.min_known_features) {
       stats->incompatible_frames = 1;
@@ -267,6 +264,7 @@ bool TestJointly(const InformationFilter& filter, const FeatureCovariance& known
     }
     (*kept)[worst] = false;
     FitKept(filter, *obs, known, *kept, T, terms, P_x);
+    testable = JointNis(*terms, *kept, *obs, known, &dof, &nis);
   }
   if (!testable) stats->incompatible_frames = 1;
   stats->noise_scales.push_back(*noise_scale);

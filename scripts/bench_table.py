@@ -159,6 +159,8 @@ def scale(out):
         if len(whole_q) == 4 and alone_q and whole_q[0] > 0 and whole_q[3] > 0:
             # The quarters are equal in frames, so their mean is the run's cost per frame.
             alone_per_frame = sum(alone_q) / len(alone_q)
+            if alone_per_frame <= 0:
+                continue
             quarters[name] = {"map_size": whole_q[3] / alone_per_frame,
                               "content": alone_per_frame / whole_q[0]}
     short, long_ = runs["synth600"], runs["synth2000"]
