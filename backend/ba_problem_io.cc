@@ -17,7 +17,9 @@ namespace ieslam {
 namespace {
 
 constexpr const char* kMagic = "ieslam_ba_problem";
-constexpr int kVersion = 2;
+constexpr int kVersion = 3;
+// Version 2 is version 3 without the registered observations (its header has three counts).
+constexpr int kOldestReadable = 2;
 constexpr const char* kEnd = "end";
 
 // Exactly representable: 17 significant digits round-trip every double.
@@ -108,7 +110,8 @@ void ReadFeature(LineReader* read, BundleAdjustmentProblem* p) {
 // `obs <frame> <feature id> <u v d> <Q00 Q01 Q02 Q11 Q12 Q22>`. Undistorted pixels may lie
 // a little outside the image; one farther out than the image's own size, or a range d <= 0, is
 // no measurement the front end makes (it would decide the solve alone).
-void ReadObservation(LineReader* read, const PinholeCamera& camera, BundleAdjustmentProblem* p) {
+void ReadObservation(LineReader* read, const PinholeCamera& camera, BundleAdjustmentProblem* p,
+                     std::vector<BundleAdjustmentObservation>* into) {
   BundleAdjustmentObservation o;
   o.frame_id = static_cast<int>(read->Integer("frame"));
   o.observation.feature_id = read->Integer("feature id");
@@ -133,7 +136,17 @@ void ReadObservation(LineReader* read, const PinholeCamera& camera, BundleAdjust
   if (o.observation.Q.llt().info() != Eigen::Success) {
     throw DataError(read->where() + ": Q is not positive definite");
   }
-  p->observations.push_back(o);
+  into->push_back(o);
+}
+
+void WriteObservation(std::ostream& out, const char* record, const BundleAdjustmentObservation& o) {
+  const FeatureObservation& obs = o.observation;
+  out << record << ' ' << o.frame_id << ' ' << obs.feature_id;
+  for (int r = 0; r < 3; ++r) out << ' ' << Exact(obs.z(r));
+  for (int r = 0; r < 3; ++r) {
+    for (int k = r; k < 3; ++k) out << ' ' << Exact(obs.Q(r, k));
+  }
+  out << '\n';
 }
 
 }  // namespace
@@ -142,10 +155,11 @@ void WriteBaProblem(const std::string& path, const StoredBaProblem& stored) {
   const BundleAdjustmentProblem& p = stored.problem;
   WriteFileAtomically(path, [&](std::ostream& out) {
     out << "# ieslam bundle-adjustment problem: the selected poses (T_w_c), the features and the\n"
-           "# observations (u v d, undistorted) with their covariance Q that the filter used.\n"
+           "# observations (u v d, undistorted) with their covariance Q that the filter used,\n"
+           "# then, where its observation gate took them otherwise, all as registered.\n"
            "# Refine it with: ieslam refine --run <this run's directory> --output OUT\n";
     out << kMagic << ' ' << kVersion << ' ' << p.T_w_c.size() << ' ' << p.p_w.size() << ' '
-        << p.observations.size() << '\n';
+        << p.observations.size() << ' ' << p.registered.size() << '\n';
     const PinholeCamera& c = stored.camera;
     out << "camera " << c.width << ' ' << c.height << ' ' << Exact(c.fx) << ' ' << Exact(c.fy)
         << ' ' << Exact(c.cx) << ' ' << Exact(c.cy) << '\n';
@@ -164,14 +178,9 @@ void WriteBaProblem(const std::string& path, const StoredBaProblem& stored) {
       out << "feature " << id << ' ' << Exact(p_w.x()) << ' ' << Exact(p_w.y()) << ' '
           << Exact(p_w.z()) << '\n';
     }
-    for (const BundleAdjustmentObservation& o : p.observations) {
-      const FeatureObservation& obs = o.observation;
-      out << "obs " << o.frame_id << ' ' << obs.feature_id;
-      for (int r = 0; r < 3; ++r) out << ' ' << Exact(obs.z(r));
-      for (int r = 0; r < 3; ++r) {
-        for (int k = r; k < 3; ++k) out << ' ' << Exact(obs.Q(r, k));
-      }
-      out << '\n';
+    for (const BundleAdjustmentObservation& o : p.observations) WriteObservation(out, "obs", o);
+    for (const BundleAdjustmentObservation& o : p.registered) {
+      WriteObservation(out, "registered", o);
     }
     out << kEnd << '\n';
   });
@@ -184,7 +193,7 @@ StoredBaProblem ReadBaProblem(const std::string& path) {
   StoredBaProblem stored;
   BundleAdjustmentProblem& p = stored.problem;
   bool header = false, camera = false, end = false;
-  int64_t poses = 0, features = 0, observations = 0;  // as the header counts them
+  int64_t poses = 0, features = 0, observations = 0, registered = 0;  // as the header counts them
   std::string line;
   for (int number = 1; std::getline(in, line); ++number) {
     if (line.empty() || line[0] == '#') continue;
@@ -197,16 +206,18 @@ StoredBaProblem ReadBaProblem(const std::string& path) {
       if (record != kMagic)
         throw DataError(read.where() + ": not an ieslam bundle-adjustment problem");
       const int64_t version = read.Integer("version");
-      if (version < kVersion) {
+      if (version < kOldestReadable) {
         throw DataError(read.where() + ": format version " + std::to_string(version) +
-                        ", written by an older ieslam (this one reads version " +
-                        std::to_string(kVersion) + "); re-run `ieslam run` to write it again");
+                        ", written by an older ieslam (this one reads versions " +
+                        std::to_string(kOldestReadable) + "-" + std::to_string(kVersion) +
+                        "); re-run `ieslam run` to write it again");
       }
-      if (version != kVersion)
+      if (version > kVersion)
         throw DataError(read.where() + ": unsupported version " + std::to_string(version));
       poses = read.Integer("pose count");
       features = read.Integer("feature count");
       observations = read.Integer("observation count");
+      if (version >= 3) registered = read.Integer("registered observation count");
       header = true;
     } else if (record == "camera") {
       ReadCamera(&read, &stored.camera);
@@ -217,9 +228,9 @@ StoredBaProblem ReadBaProblem(const std::string& path) {
       ReadPose(&read, &stored);
     } else if (record == "feature") {
       ReadFeature(&read, &p);
-    } else if (record == "obs") {
+    } else if (record == "obs" || record == "registered") {
       if (!camera) throw DataError(read.where() + ": observation before the camera line");
-      ReadObservation(&read, stored.camera, &p);
+      ReadObservation(&read, stored.camera, &p, record == "obs" ? &p.observations : &p.registered);
     } else if (record == kEnd) {
       end = true;
     } else {
@@ -239,6 +250,7 @@ StoredBaProblem ReadBaProblem(const std::string& path) {
   count("poses", p.T_w_c.size(), poses);
   count("features", p.p_w.size(), features);
   count("observations", p.observations.size(), observations);
+  count("registered observations", p.registered.size(), registered);
   if (!end) throw DataError(path + ": no end line (the file is cut short)");
   if (p.anchor_frame_id >= 0 && !p.T_w_c.count(p.anchor_frame_id)) {
     throw DataError(path + ": anchor frame " + std::to_string(p.anchor_frame_id) + " has no pose");

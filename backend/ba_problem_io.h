@@ -6,15 +6,18 @@
 // gives back exactly what was written (the refinement from the file is bit-identical to the
 // one inside the run):
 //   # comments
-//   ieslam_ba_problem 2 <poses> <features> <observations>
+//   ieslam_ba_problem 3 <poses> <features> <observations> <registered>
 //   camera <width> <height> <fx> <fy> <cx> <cy>        (undistorted observations)
 //   anchor <frame>
 //   pose <frame> <timestamp> <r00 r01 r02 r10 r11 r12 r20 r21 r22> <tx ty tz>   (T_w_c)
 //   feature <id> <x y z>                                (world)
 //   obs <frame> <feature id> <u v d> <Q00 Q01 Q02 Q11 Q12 Q22>
+//   registered <frame> <feature id> <u v d> <Q00 Q01 Q02 Q11 Q12 Q22>   (see below)
 //   end
+// `registered` records are BundleAdjustmentProblem::registered, after every `obs` record.
 // The header's counts and the end line tell a complete file from one cut short, even at a
-// line boundary. Version 1 files (without them) are refused: they cannot be checked.
+// line boundary. Version 1 files (without them) are refused: they cannot be checked. Version 2
+// files (three counts, no registered observations) are read.
 #pragma once
 
 #include <map>

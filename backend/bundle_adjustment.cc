@@ -586,7 +586,8 @@ int BundleAdjustmentProblem::AnchorFrameId() const {
 
 BundleAdjustmentProblem MakeProblemFromFilter(
     const InformationFilter& filter,
-    const std::map<int, std::vector<FeatureObservation>>& observations_by_frame) {
+    const std::map<int, std::vector<FeatureObservation>>& observations_by_frame,
+    const std::map<int, std::vector<FeatureObservation>>& registered_by_frame) {
   BundleAdjustmentProblem problem;
   for (int frame_id : filter.frame_ids()) {
     problem.T_w_c[frame_id] = PoseToIsometry(filter.pose(frame_id));
@@ -595,8 +596,8 @@ BundleAdjustmentProblem MakeProblemFromFilter(
     problem.p_w[feature_id] = filter.feature(feature_id);
   }
   if (!filter.frame_ids().empty()) problem.anchor_frame_id = filter.frame_ids().front();
-  for (const auto& [frame_id, observations] : observations_by_frame) {
-    if (!filter.HasPose(frame_id)) continue;
+  const auto add = [&filter](int frame_id, const std::vector<FeatureObservation>& observations,
+                             std::vector<BundleAdjustmentObservation>* into) {
     for (const FeatureObservation& obs : observations) {
       if (!filter.HasFeature(obs.feature_id)) {
         // A pending feature (seen from too few poses to enter the filter: one, by default)
@@ -605,8 +606,16 @@ BundleAdjustmentProblem MakeProblemFromFilter(
         throw DataError(ObservationName({frame_id, obs}) +
                         ": the filter does not hold the feature");
       }
-      problem.observations.push_back({frame_id, obs});
+      into->push_back({frame_id, obs});
     }
+  };
+  for (const auto& [frame_id, observations] : observations_by_frame) {
+    if (!filter.HasPose(frame_id)) continue;
+    add(frame_id, observations, &problem.observations);
+    if (registered_by_frame.empty()) continue;
+    const auto registered = registered_by_frame.find(frame_id);
+    add(frame_id, registered != registered_by_frame.end() ? registered->second : observations,
+        &problem.registered);
   }
   return problem;
 }

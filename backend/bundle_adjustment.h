@@ -103,6 +103,14 @@ struct BundleAdjustmentOptions {
   // spread about the joint optimum says by how much. Where the information is right the factor
   // is 1.
   bool weigh_relative_poses = true;
+  // Read by the batch refinement (selection/pipeline/refinement.h), not by the solver: the
+  // refinement solves with every registered observation at its stated Q
+  // (BundleAdjustmentProblem::registered), left to the rejection rounds above, rather than
+  // with what the filter's gate took. The gate judges each frame online against the map's
+  // stated covariance, which on real data is too small, and refuses right measurements with
+  // the wrong ones; the batch judges them all at its own optimum. The bundle adjustment the
+  // filter is checked against keeps the filter's information.
+  bool refine_registered = true;
   // With the Schur solvers the features are eliminated first and the reduced camera system
   // of the poses is factored, densely (Eigen) or sparsely (SuiteSparse/CHOLMOD);
   // sparse_normal_cholesky factors the whole normal equations with CHOLMOD. auto: dense
@@ -159,6 +167,12 @@ struct BundleAdjustmentProblem {
   std::map<int, Eigen::Isometry3d> T_w_c;  // by frame id
   std::map<int64_t, Eigen::Vector3d> p_w;  // by feature id
   std::vector<BundleAdjustmentObservation> observations;
+  // Where the filter's observation gate took the registered observations otherwise (refused
+  // some, scaled the Q of others): every registered observation of the problem's poses and
+  // features with its stated Q; else empty. SolveBundleAdjustment uses `observations` only
+  // (the filter's own information, which the smoother is checked against); a refinement may
+  // solve with these instead.
+  std::vector<BundleAdjustmentObservation> registered;
   // Terms between poses besides the observations; none in the filter's own problem.
   std::vector<RelativePoseConstraint> relative_poses;
   // The pose held fixed (the gauge); -1: the smallest frame id.
@@ -172,10 +186,13 @@ struct BundleAdjustmentProblem {
 // are skipped: they were not selected) of features in its state (sightings of pending
 // features, seen by too few poses to enter it, are skipped too: a feature seen from one pose
 // constrains none). Throws DataError naming the frame and the feature when an observation of
-// a selected frame refers to a feature the filter does not know.
+// a selected frame refers to a feature the filter does not know. With `registered_by_frame`
+// (the frames whose observations the gate took otherwise, as registered) `registered` holds
+// every frame's observations, from there where given, under the same rules.
 BundleAdjustmentProblem MakeProblemFromFilter(
     const InformationFilter& filter,
-    const std::map<int, std::vector<FeatureObservation>>& observations_by_frame);
+    const std::map<int, std::vector<FeatureObservation>>& observations_by_frame,
+    const std::map<int, std::vector<FeatureObservation>>& registered_by_frame = {});
 
 // `problem` started from other poses: T_w_c (which must hold every frame of the problem;
 // DataError naming the first missing one otherwise) replaces its poses, and each feature is

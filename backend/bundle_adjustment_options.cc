@@ -78,6 +78,8 @@ const OptionTable<BundleAdjustmentOptions>& BundleAdjustmentOptions::Table() {
         .Min(0);
     t->Bool("weigh_relative_poses", &O::weigh_relative_poses,
             "relative poses' information divided by their own variance factor");
+    t->Bool("refine_registered", &O::refine_registered,
+            "the refinement weighs every registered observation, not the filter's gated set");
     t->Int("max_iterations", &O::max_iterations, "Levenberg-Marquardt iterations per solve").Min(1);
     t->Double("cost_tolerance", &O::cost_tolerance,
               "a step's gain or its model's miss below this ends a solve (1/2 chi-square; 0: off)")

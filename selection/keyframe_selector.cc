@@ -97,14 +97,16 @@ class Run {
   bool Add(const CandidateFrame& c) {
     const auto start = Clock::now();
     std::vector<FeatureObservation> observations = c.observations;
+    bool gated_otherwise = false;  // the gate refused some or scaled their Q
     Vector6d T_w_c = InitialPose(c);
     if (filter_->options().gate_chi2 > 0.0) {
       std::vector<int64_t> known;
       for (const FeatureObservation& obs : observations) known.push_back(obs.feature_id);
-      const GatedObservations gated = GateObservations(
+      GatedObservations gated = GateObservations(
           *filter_, T_w_c, observations, filter_->JointFeatureCovariance(known), /*joint=*/true);
       result_->gate.Add(gated.stats);
-      observations = gated.observations;
+      gated_otherwise = gated.stats.rejected > 0 || gated.noise_scale != 1.0;
+      observations = std::move(gated.observations);
       if (gated.pose_fitted) T_w_c = gated.T_w_c;
     }
     try {
@@ -119,6 +121,7 @@ class Run {
     Commit(c);
     result_->selected.push_back(c.frame);
     result_->observations[c.frame] = std::move(observations);
+    if (gated_otherwise) result_->registered[c.frame] = c.observations;
     FramePlacement& placement = result_->frames[c.frame];
     placement.selected = placement.placed = true;
     placement.skip_reason.clear();

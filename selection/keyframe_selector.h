@@ -82,6 +82,10 @@ struct SelectionResult {
   std::vector<int> selected;  // in the order added
   // The observations each selected frame entered the filter with (for bundle adjustment).
   std::map<int, std::vector<FeatureObservation>> observations;
+  // Each selected frame's observations as registered (with their stated Q), where the
+  // filter's gate took them otherwise: refused some, or scaled their Q. The batch
+  // refinement may weigh these instead (BundleAdjustmentOptions::refine_registered).
+  std::map<int, std::vector<FeatureObservation>> registered;
   std::vector<SelectionDecision> decisions;
   std::vector<FramePlacement> frames;  // one per frame of the source
   // Dead reckoning only: the chained pose of every frame (no filter).

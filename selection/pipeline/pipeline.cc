@@ -52,7 +52,8 @@ PipelineResult RunPipeline(FrameSource* source, const PinholeCamera& camera,
   if (dead_reckoning || result.filter->num_poses() == 0) return result;
 
   result.has_estimate = true;
-  result.problem = MakeProblemFromFilter(*result.filter, result.selection.observations);
+  result.problem = MakeProblemFromFilter(*result.filter, result.selection.observations,
+                                         result.selection.registered);
   const auto covariance_start = std::chrono::steady_clock::now();
   result.estimate = FilterEstimate(*result.filter);
   result.covariance_seconds = SecondsSince(covariance_start);

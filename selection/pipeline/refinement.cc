@@ -3,6 +3,9 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <set>
+#include <string>
+#include <utility>
 
 #include "core/stopwatch.h"
 
@@ -64,6 +67,62 @@ Json DepthAlignmentToJson(const Refinement& refinement) {
       .Set("ba", SolverToJson(refinement.depth_aligned));
 }
 
+// Why a features' solve of `problem` is no refinement (empty if it is one).
+std::string FeaturesFailure(const BundleAdjustmentProblem& problem,
+                            const BundleAdjustmentResult& solved) {
+  if (problem.observations.empty()) return "the problem has no observations";
+  if (solved.interrupted) return "the bundle adjustment was interrupted";
+  if (!solved.usable || solved.num_residuals == 0) {
+    return "the bundle adjustment failed (" + solved.termination + ")";
+  }
+  return "";
+}
+
+// `problem` solved with its registered observations in place of the filter's.
+BundleAdjustmentProblem WithRegistered(const BundleAdjustmentProblem& problem) {
+  BundleAdjustmentProblem registered = problem;
+  registered.observations = problem.registered;
+  registered.registered.clear();
+  return registered;
+}
+
+// The features' solve with every registered observation into refinement->registered, and how
+// many of those the gate refused its rejection rounds kept (a frame observes a feature
+// once). An interruption is the refinement's failure; another failure leaves
+// registered_used false, with a warning.
+void SolveRegistered(const BundleAdjustmentProblem& problem,
+                     const BundleAdjustmentProblem& registered, const PinholeCamera& camera,
+                     const BundleAdjustmentOptions& ba, Refinement* refinement) {
+  refinement->registered = SolveBundleAdjustment(registered, camera, ba);
+  const std::string failure = FeaturesFailure(registered, refinement->registered);
+  if (refinement->registered.interrupted) {
+    refinement->failure = failure;
+    return;
+  }
+  if (!failure.empty()) {
+    refinement->warnings.push_back(failure +
+                                   " with every registered observation; the "
+                                   "refinement rests on the filter's own");
+    return;
+  }
+  refinement->registered_used = true;
+  std::set<std::pair<int, int64_t>> taken, refused;
+  for (const BundleAdjustmentObservation& o : problem.observations) {
+    taken.emplace(o.frame_id, o.observation.feature_id);
+  }
+  for (const BundleAdjustmentObservation& o : registered.observations) {
+    if (!taken.count({o.frame_id, o.observation.feature_id})) {
+      refused.emplace(o.frame_id, o.observation.feature_id);
+    }
+  }
+  int rejected = 0;
+  for (const BundleAdjustmentObservation& o : refinement->registered.rejected) {
+    rejected += static_cast<int>(refused.count({o.frame_id, o.observation.feature_id}));
+  }
+  refinement->refused = static_cast<int>(refused.size());
+  refinement->refused_kept = refinement->refused - rejected;
+}
+
 }  // namespace
 
 Refinement Refine(const BundleAdjustmentProblem& problem, const PinholeCamera& camera,
@@ -72,28 +131,34 @@ Refinement Refine(const BundleAdjustmentProblem& problem, const PinholeCamera& c
   Refinement refinement;
   const auto start = std::chrono::steady_clock::now();
   // With clouds to align, the depth-aligned solve is the refinement and brings its own
-  // covariances: the features' solve computes its own only if that one turns out unusable.
+  // covariances; the features' solves compute theirs only if they turn out the refinement.
   const bool clouds_given = clouds != nullptr && depth.rounds > 0 && !clouds->clouds.empty();
+  refinement.registered_tried = ba.refine_registered && !problem.registered.empty();
   BundleAdjustmentOptions features_ba = ba;
   if (clouds_given) {
     features_ba.covariances_wanted = [](const BundleAdjustmentResult&) { return false; };
   }
-  // Why the features' solve is no refinement (empty if it is one).
-  const auto features_failure = [&problem](const BundleAdjustmentResult& solved) -> std::string {
-    if (problem.observations.empty()) return "the problem has no observations";
-    if (solved.interrupted) return "the bundle adjustment was interrupted";
-    if (!solved.usable || solved.num_residuals == 0) {
-      return "the bundle adjustment failed (" + solved.termination + ")";
+  // The check's solve computes covariances only when it is the refinement's features' solve.
+  BundleAdjustmentOptions check_ba = features_ba;
+  if (refinement.registered_tried) {
+    check_ba.covariances_wanted = [](const BundleAdjustmentResult&) { return false; };
+  }
+  refinement.smoothed = SolveBundleAdjustment(problem, camera, check_ba);
+  refinement.failure = FeaturesFailure(problem, refinement.smoothed);
+  BundleAdjustmentProblem registered;
+  if (refinement.registered_tried && refinement.ok()) {
+    registered = WithRegistered(problem);
+    SolveRegistered(problem, registered, camera, features_ba, &refinement);
+    if (refinement.ok() && !refinement.registered_used && !clouds_given && ba.compute_covariances) {
+      refinement.smoothed = SolveBundleAdjustment(problem, camera, features_ba);
     }
-    return "";
-  };
-  refinement.smoothed = SolveBundleAdjustment(problem, camera, features_ba);
-  refinement.failure = features_failure(refinement.smoothed);
+  }
+  const BundleAdjustmentProblem& features = refinement.registered_used ? registered : problem;
   refinement.depth_alignment_tried = clouds_given && refinement.ok();
   if (refinement.depth_alignment_tried) {
-    BundleAdjustmentProblem started = problem;
-    started.T_w_c = refinement.smoothed.T_w_c;
-    started.p_w = refinement.smoothed.p_w;
+    BundleAdjustmentProblem started = features;
+    started.T_w_c = refinement.features().T_w_c;
+    started.p_w = refinement.features().p_w;
     refinement.depth_aligned = SolveWithDepthAlignment(started, camera, clouds->clouds, ba, depth,
                                                        &refinement.depth_stats);
     refinement.depth_frames = static_cast<int>(clouds->clouds.size());
@@ -108,8 +173,10 @@ Refinement Refine(const BundleAdjustmentProblem& problem, const PinholeCamera& c
       // The same solve again, now with the covariances it left out (the same result with
       // one solver thread; Ceres' threads may sum in another order).
       if (ba.compute_covariances) {
-        refinement.smoothed = SolveBundleAdjustment(problem, camera, ba);
-        refinement.failure = features_failure(refinement.smoothed);
+        BundleAdjustmentResult& solved =
+            refinement.registered_used ? refinement.registered : refinement.smoothed;
+        solved = SolveBundleAdjustment(features, camera, ba);
+        refinement.failure = FeaturesFailure(features, solved);
       }
     }
   }
@@ -118,7 +185,7 @@ Refinement Refine(const BundleAdjustmentProblem& problem, const PinholeCamera& c
       CompareFilterToSmoother(filter_estimate, SmootherEstimate(refinement.smoothed));
   if (refinement.depth_alignment_tried) {
     refinement.change_from_smoothed = CompareFilterToSmoother(
-        SmootherEstimate(refinement.smoothed), SmootherEstimate(refinement.depth_aligned));
+        SmootherEstimate(refinement.features()), SmootherEstimate(refinement.depth_aligned));
   }
   return refinement;
 }
@@ -137,6 +204,13 @@ Trajectory RefinedTrajectory(const Refinement& refinement,
 Json RefinementToJson(const Refinement& refinement) {
   Json json = ComparisonToJson(refinement.comparison, true);
   json.Set("ba", SolverToJson(refinement.smoothed));
+  if (refinement.registered_tried) {
+    json.Set("registered", Json::Object()
+                               .Set("used", refinement.registered_used)
+                               .Set("refused_by_the_gate", refinement.refused)
+                               .Set("refused_kept", refinement.refused_kept)
+                               .Set("ba", SolverToJson(refinement.registered)));
+  }
   if (refinement.depth_alignment_tried)
     json.Set("depth_alignment", DepthAlignmentToJson(refinement));
   return json;

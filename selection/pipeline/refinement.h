@@ -26,20 +26,31 @@ struct RangeClouds {
 };
 
 struct Refinement {
-  // The bundle adjustment of the features; without covariances when depth_aligned is used
-  // (that one is the refinement and has its own).
+  // The bundle adjustment of the features the filter observed, with the observations it
+  // took: the smoother the filter is checked against. Without covariances when another solve
+  // is the refinement (that one has its own).
   BundleAdjustmentResult smoothed;
   // The filter's estimate against `smoothed`.
   FilterSmootherComparison comparison;
-  // Tried when clouds were given, the depth options ask for rounds and `smoothed` is usable;
-  // used when that solve is usable too (else the refinement is `smoothed`, with a warning).
+  // With BundleAdjustmentOptions::refine_registered and a problem whose `registered`
+  // observations differ from the filter's: the bundle adjustment of the features with those
+  // (every registered observation, its stated Q), from the filter's estimate; the
+  // refinement's features when usable.
+  bool registered_tried = false;
+  bool registered_used = false;
+  BundleAdjustmentResult registered;
+  int refused = 0;       // registered observations the filter's gate refused
+  int refused_kept = 0;  // of them, what `registered`'s rejection rounds kept
+  // Tried when clouds were given, the depth options ask for rounds and the features' solve
+  // (`registered` when used, else `smoothed`) is usable; used when that solve is usable too
+  // (else the refinement is the features' solve, with a warning).
   bool depth_alignment_tried = false;
   bool depth_alignment_used = false;
   BundleAdjustmentResult depth_aligned;
   DepthAlignmentStats depth_stats;
   int depth_frames = 0;  // frames with a cloud
   int depth_frames_left_out = 0;
-  // Where depth_aligned differs from smoothed (when tried).
+  // Where depth_aligned differs from the features' solve it started from (when tried).
   FilterSmootherComparison change_from_smoothed;
   double seconds = 0.0;  // every solve
   std::vector<std::string> warnings;
@@ -50,15 +61,18 @@ struct Refinement {
 
   bool ok() const { return failure.empty(); }
 
-  // The refined estimate: depth_aligned when used, else smoothed.
+  // The features' solve the refinement rests on: registered when used, else smoothed.
+  const BundleAdjustmentResult& features() const { return registered_used ? registered : smoothed; }
+  // The refined estimate: depth_aligned when used, else features().
   const BundleAdjustmentResult& refined() const {
-    return depth_alignment_used ? depth_aligned : smoothed;
+    return depth_alignment_used ? depth_aligned : features();
   }
 };
 
 // Bundle-adjusts `problem` (started from its poses and features) and compares the result with
-// `filter_estimate`; with `clouds` and depth.rounds > 0, goes on with the clouds' pairwise
-// alignments. An interruption (ba.stop) anywhere, like a failed bundle adjustment, is
+// `filter_estimate`; with ba.refine_registered, bundle-adjusts it again with its registered
+// observations (when it has them); with `clouds` and depth.rounds > 0, goes on with the clouds'
+// pairwise alignments. An interruption (ba.stop) anywhere, like a failed bundle adjustment, is
 // `failure`: a half-done refinement is no refinement.
 Refinement Refine(const BundleAdjustmentProblem& problem, const PinholeCamera& camera,
                   const SlamEstimate& filter_estimate, const BundleAdjustmentOptions& ba,

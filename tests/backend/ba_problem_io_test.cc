@@ -161,8 +161,54 @@ TEST_F(BaProblemIoTest, AnOlderOrUnknownVersionIsRefusedNamingIt) {
   const std::string old = ErrorReading(lines);
   EXPECT_NE(old.find("version 1"), std::string::npos) << old;
   EXPECT_NE(old.find("re-run `ieslam run`"), std::string::npos) << old;
-  *header = "ieslam_ba_problem 3 1 1 1";
-  EXPECT_NE(ErrorReading(lines).find("unsupported version 3"), std::string::npos);
+  *header = "ieslam_ba_problem 4 1 1 1 0";
+  EXPECT_NE(ErrorReading(lines).find("unsupported version 4"), std::string::npos);
+}
+
+// The registered observations come back apart from the filter's; a version 2 file (none,
+// three counts) is still read.
+TEST_F(BaProblemIoTest, RegisteredObservationsRoundTripApartAndVersionTwoIsRead) {
+  const size_t observations = stored_.problem.observations.size();
+  stored_.problem.registered = stored_.problem.observations;
+  stored_.problem.registered.back().observation.Q *= 4.0;
+  stored_.problem.observations.resize(observations - 3);
+  WriteBaProblem(Path("p.txt"), stored_);
+  const StoredBaProblem back = ReadBaProblem(Path("p.txt"));
+  EXPECT_EQ(back.problem.observations.size(), observations - 3);
+  ASSERT_EQ(back.problem.registered.size(), observations);
+  for (size_t i = 0; i < observations; ++i) {
+    const BundleAdjustmentObservation& a = back.problem.registered[i];
+    const BundleAdjustmentObservation& b = stored_.problem.registered[i];
+    EXPECT_EQ(a.frame_id, b.frame_id);
+    EXPECT_EQ(a.observation.feature_id, b.observation.feature_id);
+    EXPECT_EQ(a.observation.z, b.observation.z);
+    EXPECT_EQ(a.observation.Q, b.observation.Q);
+  }
+  // One registered observation fewer than the header counts: refused.
+  std::vector<std::string> lines = WrittenLines();
+  lines.erase(lines.end() - 2);
+  const std::string error = ErrorReading(lines);
+  EXPECT_NE(error.find(std::to_string(observations - 1) +
+                       " registered observations, the header says " + std::to_string(observations)),
+            std::string::npos)
+      << error;
+
+  stored_.problem.registered.clear();
+  lines = WrittenLines();
+  const auto header = std::find_if(lines.begin(), lines.end(), [](const std::string& line) {
+    return line.rfind("ieslam_ba_problem ", 0) == 0;
+  });
+  ASSERT_NE(header, lines.end());
+  *header = "ieslam_ba_problem 2 " + std::to_string(stored_.problem.T_w_c.size()) + " " +
+            std::to_string(stored_.problem.p_w.size()) + " " + std::to_string(observations - 3);
+  const StoredBaProblem old = ReadLines(lines);
+  EXPECT_EQ(old.problem.observations.size(), observations - 3);
+  EXPECT_TRUE(old.problem.registered.empty());
+  // A version 2 header counts no registered observations.
+  lines.insert(lines.end() - 1, lines[lines.size() - 2]);
+  lines[lines.size() - 2].replace(0, 3, "registered");
+  EXPECT_NE(ErrorReading(lines).find("1 registered observations, the header says 0"),
+            std::string::npos);
 }
 
 TEST_F(BaProblemIoTest, AnObservationFarOutsideTheImageOrWithoutRangeIsRefused) {

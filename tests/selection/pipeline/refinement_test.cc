@@ -125,5 +125,69 @@ TEST(RefinementTest, OnlyTheSolveThatIsTheRefinementComputesCovariances) {
   }
 }
 
+// As if the filter's gate had refused nine right observations and a wrong one: the check's
+// solve keeps the filter's observations, the refinement solves with every registered one and
+// its rejection rounds judge them (keeping the nine, rejecting the wrong one).
+TEST(RefinementTest, TheRefinementWeighsEveryRegisteredObservationTheCheckTheFiltersOwn) {
+  SimulatedDataset data;
+  const PipelineResult filtered = FilteredSimulation(&data);
+  BundleAdjustmentProblem problem = filtered.problem;
+  // The ten refused are among the observations the solve keeps without any refusal.
+  const BundleAdjustmentResult all = SolveBundleAdjustment(problem, data.camera, {});
+  const auto rejected_by_all = [&all](const BundleAdjustmentObservation& o) {
+    return std::any_of(all.rejected.begin(), all.rejected.end(), [&o](const auto& r) {
+      return r.frame_id == o.frame_id && r.observation.feature_id == o.observation.feature_id;
+    });
+  };
+  problem.registered = problem.observations;
+  std::vector<size_t> refused;
+  for (size_t i = 0; i < problem.registered.size() && refused.size() < 10; ++i) {
+    if (!rejected_by_all(problem.registered[i])) refused.push_back(i);
+  }
+  ASSERT_EQ(refused.size(), 10u);
+  BundleAdjustmentObservation& wrong = problem.registered[refused[3]];
+  wrong.observation.z.head<2>() += Eigen::Vector2d(12.0, -9.0);
+  problem.observations.clear();
+  for (size_t i = 0; i < problem.registered.size(); ++i) {
+    if (std::find(refused.begin(), refused.end(), i) == refused.end()) {
+      problem.observations.push_back(filtered.problem.observations[i]);
+    }
+  }
+
+  const Refinement refinement = Refine(problem, data.camera, filtered.estimate,
+                                       BundleAdjustmentOptions(), DepthAlignmentOptions());
+  ASSERT_TRUE(refinement.ok()) << refinement.failure;
+  ASSERT_TRUE(refinement.registered_used);
+  EXPECT_EQ(&refinement.refined(), &refinement.registered);
+  EXPECT_EQ(refinement.refused, 10);
+  EXPECT_EQ(refinement.refused_kept, 9);
+  EXPECT_TRUE(
+      std::any_of(refinement.registered.rejected.begin(), refinement.registered.rejected.end(),
+                  [&wrong](const auto& r) { return r.observation.z == wrong.observation.z; }));
+  EXPECT_EQ(refinement.smoothed.observations, static_cast<int>(problem.observations.size()));
+  EXPECT_EQ(refinement.registered.observations, static_cast<int>(problem.registered.size()));
+  // Only the refinement's solve computes covariances; the comparison is the check's.
+  EXPECT_TRUE(refinement.smoothed.pose_covariances.empty());
+  EXPECT_EQ(refinement.registered.pose_covariances.size(), problem.T_w_c.size());
+  const FilterSmootherComparison check =
+      CompareFilterToSmoother(filtered.estimate, SmootherEstimate(refinement.smoothed));
+  EXPECT_EQ(refinement.comparison.translation_m.rmse, check.translation_m.rmse);
+  const std::string json = RefinementToJson(refinement).Dump();
+  EXPECT_NE(json.find("\"refused_kept\": 9"), std::string::npos) << json;
+
+  // Switched off, the refinement is the check's solve.
+  BundleAdjustmentOptions own;
+  own.refine_registered = false;
+  const Refinement check_only =
+      Refine(problem, data.camera, filtered.estimate, own, DepthAlignmentOptions());
+  ASSERT_TRUE(check_only.ok()) << check_only.failure;
+  EXPECT_FALSE(check_only.registered_tried);
+  EXPECT_EQ(&check_only.refined(), &check_only.smoothed);
+  EXPECT_EQ(check_only.smoothed.pose_covariances.size(), problem.T_w_c.size());
+  for (const auto& [frame, T] : check_only.smoothed.T_w_c) {
+    EXPECT_EQ(T.matrix(), refinement.smoothed.T_w_c.at(frame).matrix()) << "frame " << frame;
+  }
+}
+
 }  // namespace
 }  // namespace ieslam
