@@ -183,6 +183,10 @@ Refinement Refine(const BundleAdjustmentProblem& problem, const PinholeCamera& c
   refinement.seconds = SecondsSince(start);
   refinement.comparison =
       CompareFilterToSmoother(filter_estimate, SmootherEstimate(refinement.smoothed));
+  if (refinement.registered_used) {
+    refinement.registered_comparison =
+        CompareFilterToSmoother(filter_estimate, SmootherEstimate(refinement.registered));
+  }
   if (refinement.depth_alignment_tried) {
     refinement.change_from_smoothed = CompareFilterToSmoother(
         SmootherEstimate(refinement.features()), SmootherEstimate(refinement.depth_aligned));
@@ -205,11 +209,13 @@ Json RefinementToJson(const Refinement& refinement) {
   Json json = ComparisonToJson(refinement.comparison, true);
   json.Set("ba", SolverToJson(refinement.smoothed));
   if (refinement.registered_tried) {
-    json.Set("registered", Json::Object()
-                               .Set("used", refinement.registered_used)
-                               .Set("refused_by_the_gate", refinement.refused)
-                               .Set("refused_kept", refinement.refused_kept)
-                               .Set("ba", SolverToJson(refinement.registered)));
+    json.Set("registered",
+             Json::Object()
+                 .Set("used", refinement.registered_used)
+                 .Set("refused_by_the_gate", refinement.refused)
+                 .Set("refused_kept", refinement.refused_kept)
+                 .Set("filter_vs_this", ComparisonToJson(refinement.registered_comparison, false))
+                 .Set("ba", SolverToJson(refinement.registered)));
   }
   if (refinement.depth_alignment_tried)
     json.Set("depth_alignment", DepthAlignmentToJson(refinement));

@@ -41,6 +41,9 @@ struct Refinement {
   BundleAdjustmentResult registered;
   int refused = 0;       // registered observations the filter's gate refused
   int refused_kept = 0;  // of them, what `registered`'s rejection rounds kept
+  // The filter's estimate against `registered` (when used): how far the filter is from the
+  // adjustment of all the data, not only of what it took.
+  FilterSmootherComparison registered_comparison;
   // Tried when clouds were given, the depth options ask for rounds and the features' solve
   // (`registered` when used, else `smoothed`) is usable; used when that solve is usable too
   // (else the refinement is the features' solve, with a warning).

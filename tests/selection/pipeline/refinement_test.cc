@@ -118,8 +118,8 @@ TEST(RefinementTest, OnlyTheSolveThatIsTheRefinementComputesCovariances) {
   // the depth-aligned solve's above, which solved the same problem from the same start.
   const Refinement features_only = Refine(filtered.problem, data.camera, filtered.estimate,
                                           BundleAdjustmentOptions(), DepthAlignmentOptions());
-  ASSERT_EQ(features_only.smoothed.pose_covariances.size(), filtered.problem.T_w_c.size());
-  for (const auto& [frame, P] : features_only.smoothed.pose_covariances) {
+  ASSERT_EQ(features_only.features().pose_covariances.size(), filtered.problem.T_w_c.size());
+  for (const auto& [frame, P] : features_only.features().pose_covariances) {
     EXPECT_TRUE(P.isApprox(refinement.depth_aligned.pose_covariances.at(frame), 1e-3))
         << "frame " << frame;
   }
@@ -172,6 +172,10 @@ TEST(RefinementTest, TheRefinementWeighsEveryRegisteredObservationTheCheckTheFil
   const FilterSmootherComparison check =
       CompareFilterToSmoother(filtered.estimate, SmootherEstimate(refinement.smoothed));
   EXPECT_EQ(refinement.comparison.translation_m.rmse, check.translation_m.rmse);
+  const FilterSmootherComparison against_all =
+      CompareFilterToSmoother(filtered.estimate, SmootherEstimate(refinement.registered));
+  EXPECT_EQ(refinement.registered_comparison.mahalanobis.rmse, against_all.mahalanobis.rmse);
+  EXPECT_NE(against_all.mahalanobis.rmse, check.mahalanobis.rmse);
   const std::string json = RefinementToJson(refinement).Dump();
   EXPECT_NE(json.find("\"refused_kept\": 9"), std::string::npos) << json;
 
