@@ -20,6 +20,18 @@ namespace {
 
 namespace fs = std::filesystem;
 
+// The same observations to the last bit, in the same order.
+void ExpectSameObservations(const std::vector<BundleAdjustmentObservation>& read,
+                            const std::vector<BundleAdjustmentObservation>& written) {
+  ASSERT_EQ(read.size(), written.size());
+  for (size_t i = 0; i < read.size(); ++i) {
+    EXPECT_EQ(read[i].frame_id, written[i].frame_id) << i;
+    EXPECT_EQ(read[i].observation.feature_id, written[i].observation.feature_id) << i;
+    EXPECT_EQ(read[i].observation.z, written[i].observation.z) << i;
+    EXPECT_EQ(read[i].observation.Q, written[i].observation.Q) << i;
+  }
+}
+
 class BaProblemIoTest : public ::testing::Test {
  protected:
   void SetUp() override {
@@ -85,15 +97,7 @@ TEST_F(BaProblemIoTest, RoundTripIsExactAndRefinesIdentically) {
     EXPECT_EQ(back.timestamps.at(frame), stored_.timestamps.at(frame));
   }
   EXPECT_EQ(back.problem.p_w, stored_.problem.p_w);
-  ASSERT_EQ(back.problem.observations.size(), stored_.problem.observations.size());
-  for (size_t i = 0; i < back.problem.observations.size(); ++i) {
-    const auto& a = back.problem.observations[i];
-    const auto& b = stored_.problem.observations[i];
-    EXPECT_EQ(a.frame_id, b.frame_id);
-    EXPECT_EQ(a.observation.feature_id, b.observation.feature_id);
-    EXPECT_EQ(a.observation.z, b.observation.z);
-    EXPECT_EQ(a.observation.Q, b.observation.Q);
-  }
+  ExpectSameObservations(back.problem.observations, stored_.problem.observations);
   EXPECT_EQ(back.problem.AnchorFrameId(), stored_.problem.AnchorFrameId());
   EXPECT_EQ(back.camera.fx, stored_.camera.fx);
   EXPECT_EQ(back.camera.cy, stored_.camera.cy);
@@ -174,16 +178,8 @@ TEST_F(BaProblemIoTest, RegisteredObservationsRoundTripApartAndVersionTwoIsRead)
   stored_.problem.observations.resize(observations - 3);
   WriteBaProblem(Path("p.txt"), stored_);
   const StoredBaProblem back = ReadBaProblem(Path("p.txt"));
-  EXPECT_EQ(back.problem.observations.size(), observations - 3);
-  ASSERT_EQ(back.problem.registered.size(), observations);
-  for (size_t i = 0; i < observations; ++i) {
-    const BundleAdjustmentObservation& a = back.problem.registered[i];
-    const BundleAdjustmentObservation& b = stored_.problem.registered[i];
-    EXPECT_EQ(a.frame_id, b.frame_id);
-    EXPECT_EQ(a.observation.feature_id, b.observation.feature_id);
-    EXPECT_EQ(a.observation.z, b.observation.z);
-    EXPECT_EQ(a.observation.Q, b.observation.Q);
-  }
+  ExpectSameObservations(back.problem.observations, stored_.problem.observations);
+  ExpectSameObservations(back.problem.registered, stored_.problem.registered);
   // One registered observation fewer than the header counts: refused.
   std::vector<std::string> lines = WrittenLines();
   lines.erase(lines.end() - 2);
