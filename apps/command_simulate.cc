@@ -28,8 +28,20 @@ const std::vector<FlagSpec> kSimulateFlags = {
     {"seed", "S", "scene seed; run r draws its noise from seed S + r + 1 (default 1)"},
     {"buffers", "LIST", "look-ahead buffer sizes of the info rows (default 2,3,4,5)"},
     {"trajectory", "T", "polygon (the paper's) or rectangle (sharp 90 deg turns)"},
-    {"config", "FILE", "options file (selector, filter and ba sections apply; --config of run)"},
+    {"config", "FILE",
+     "options file (selector, filter and ba sections apply; --config of run; the observation "
+     "gate, filter.gate_chi2, is off unless it sets it)"},
     {"quiet", "", "no progress output"}};
+
+// The options a study starts from: run's without the observation gate. The paper's
+// experiment knows its data association and draws the noise its Q states, so the gate would
+// reject nothing it should and add its cost to the filters Table I times; a --config may
+// turn it on.
+RunOptions StudyDefaults() {
+  RunOptions config;
+  config.pipeline.filter.gate_chi2 = 0.0;
+  return config;
+}
 
 SimulationStudyOptions StudyOptionsFromFlags(const Flags& flags, RunOptions* config) {
   SimulationStudyOptions options;
@@ -99,7 +111,7 @@ int MergeShards(const Flags& flags, const std::string& output) {
   const StudyShard merged = MergeStudyShards(std::move(shards));
   const std::string config_path = JoinPath(
       merged.path.substr(0, merged.path.size() - std::string("runs.tsv").size()), "config.yaml");
-  RunOptions config;
+  RunOptions config = StudyDefaults();
   try {
     ApplyConfigFile(config_path, &config);
   } catch (const ConfigError& e) {  // a shard's file, not the user's options
@@ -146,7 +158,7 @@ int SimulateCommand(const CommandArgs& args) {
   }
   const std::string output = flags.Require("output");
   if (flags.Has("merge")) return MergeShards(flags, output);
-  RunOptions config;
+  RunOptions config = StudyDefaults();
   const SimulationStudyOptions options = StudyOptionsFromFlags(flags, &config);
   PrepareOutputDirectory(output);
   const int rows = static_cast<int>(options.Rows().size());

@@ -85,10 +85,12 @@ struct InformationFilterOptions {
   // Observations of known features can be screened before they enter
   // (backend/observation_gate.h): each must pass a chi-square test with 3 dof at gate_chi2
   // (16.27 is 1 - 1e-3, the bundle adjustment's gate: a right observation is lost once in a
-  // thousand), then the kept set the joint test at joint_probability. 0, the default, keeps
-  // all: the gate tests against the map's stated covariance, and on real sequences that is
-  // still too small, so the gate would shed right observations (docs/results.md).
-  double gate_chi2 = 0.0;
+  // thousand), then the kept set the joint test at joint_probability; 0 keeps all. Without
+  // the gate every RANSAC inlier enters at full weight, and the bundle adjustment then
+  // refuses a fifth of them on real data. The map's stated covariance is still too small
+  // there, so the gate also sheds some right observations; the batch refinement weighs
+  // them again (BundleAdjustmentOptions::refine_registered).
+  double gate_chi2 = 16.27;
   bool joint_compatibility = true;
   double joint_probability = 0.999;
   // A frame whose kept set fails the joint test has its Q scaled by its variance factor (at

@@ -89,6 +89,19 @@ TEST_F(CommandSimulateTest, AMergeRecomputesTheTableToEveryDigit) {
   EXPECT_EQ(table(again), table(one));
 }
 
+// The paper's experiment runs without the observation gate (run's default has it on) unless
+// the config turns it on.
+TEST_F(CommandSimulateTest, TheObservationGateIsOffUnlessTheConfigSetsIt) {
+  const std::string config = ReadFile(*root_ / "one" / "config.yaml");
+  EXPECT_NE(config.find("gate_chi2: 0.0"), std::string::npos) << config;
+  const fs::path gated = *root_ / "gated.yaml";
+  std::ofstream(gated) << "filter:\n  gate_chi2: 16.27\n";
+  const auto run = RunIeslam("simulate --poses 40 --buffers 3 --runs 1 --quiet --config " +
+                             gated.string() + " --output " + Dir("gated"));
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_NE(ReadFile(*root_ / "gated" / "config.yaml").find("gate_chi2: 16.27"), std::string::npos);
+}
+
 TEST_F(CommandSimulateTest, ShardsThatDoNotFitExitWith3NamingTheFile) {
   const auto overlap =
       RunIeslam("simulate --merge " + Dir("a") + "," + Dir("one") + " --output " + Dir("bad"));
