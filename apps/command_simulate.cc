@@ -33,16 +33,6 @@ const std::vector<FlagSpec> kSimulateFlags = {
      "gate, filter.gate_chi2, is off unless it sets it)"},
     {"quiet", "", "no progress output"}};
 
-// The options a study starts from: run's without the observation gate. The paper's
-// experiment knows its data association and draws the noise its Q states, so the gate would
-// reject nothing it should and add its cost to the filters Table I times; a --config may
-// turn it on.
-RunOptions StudyDefaults() {
-  RunOptions config;
-  config.pipeline.filter.gate_chi2 = 0.0;
-  return config;
-}
-
 SimulationStudyOptions StudyOptionsFromFlags(const Flags& flags, RunOptions* config) {
   SimulationStudyOptions options;
   options.runs = flags.GetInt("runs", 1, 1, 10000);
@@ -111,7 +101,7 @@ int MergeShards(const Flags& flags, const std::string& output) {
   const StudyShard merged = MergeStudyShards(std::move(shards));
   const std::string config_path = JoinPath(
       merged.path.substr(0, merged.path.size() - std::string("runs.tsv").size()), "config.yaml");
-  RunOptions config = StudyDefaults();
+  RunOptions config = StudyRunOptions();
   try {
     ApplyConfigFile(config_path, &config);
   } catch (const ConfigError& e) {  // a shard's file, not the user's options
@@ -158,7 +148,7 @@ int SimulateCommand(const CommandArgs& args) {
   }
   const std::string output = flags.Require("output");
   if (flags.Has("merge")) return MergeShards(flags, output);
-  RunOptions config = StudyDefaults();
+  RunOptions config = StudyRunOptions();
   const SimulationStudyOptions options = StudyOptionsFromFlags(flags, &config);
   PrepareOutputDirectory(output);
   const int rows = static_cast<int>(options.Rows().size());

@@ -107,8 +107,9 @@ void ReadFeature(LineReader* read, BundleAdjustmentProblem* p) {
   }
 }
 
-// `obs <frame> <feature id> <u v d> <Q00 Q01 Q02 Q11 Q12 Q22>`. Undistorted pixels may lie
-// a little outside the image; one farther out than the image's own size, or a range d <= 0, is
+// `obs` or `registered <frame> <feature id> <u v d> <Q00 Q01 Q02 Q11 Q12 Q22>`, into `into`
+// (the problem's observations or its registered ones). Undistorted pixels may lie a little
+// outside the image; one farther out than the image's own size, or a range d <= 0, is
 // no measurement the front end makes (it would decide the solve alone).
 void ReadObservation(LineReader* read, const PinholeCamera& camera, BundleAdjustmentProblem* p,
                      std::vector<BundleAdjustmentObservation>* into) {

@@ -188,7 +188,8 @@ struct BundleAdjustmentProblem {
 // constrains none). Throws DataError naming the frame and the feature when an observation of
 // a selected frame refers to a feature the filter does not know. With `registered_by_frame`
 // (the frames whose observations the gate took otherwise, as registered) `registered` holds
-// every frame's observations, from there where given, under the same rules.
+// every selected frame's observations under the same rules: a frame's entry there where it
+// has one, else its filter's observations.
 BundleAdjustmentProblem MakeProblemFromFilter(
     const InformationFilter& filter,
     const std::map<int, std::vector<FeatureObservation>>& observations_by_frame,

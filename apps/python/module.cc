@@ -295,7 +295,7 @@ py::dict Simulate(int runs, uint32_t seed, const std::vector<int>& buffers,
     throw ConfigError("simulate: trajectory must be polygon or rectangle, got '" + trajectory +
                       "'");
   }
-  RunOptions config;
+  RunOptions config = StudyRunOptions();  // without the observation gate, as `ieslam simulate`
   ApplyRunOptions(options, py::kwargs(), &config);
   study.selector = config.pipeline.selector;
   study.filter = config.pipeline.filter;

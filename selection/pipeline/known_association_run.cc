@@ -88,7 +88,7 @@ KnownAssociationMetrics RunKnownAssociation(const KnownAssociationInput& input,
     std::vector<Eigen::Vector3d> p_true;
     MeasureErrors(input, result, &metrics, &p_true);
     if (result.refinement && result.refinement->ok() && p_true.size() >= 3) {
-      const BundleAdjustmentResult& ba = result.refinement->smoothed;
+      const BundleAdjustmentResult& ba = result.refinement->refined();
       metrics.seconds_ba = ba.solve_time_s;
       std::vector<Eigen::Vector3d> p_refined;
       for (const PoseErrorRecord& record : metrics.pose_errors) {

@@ -38,7 +38,9 @@ struct KnownAssociationMetrics {
   double mean_nees = 0.0;           // over the selected poses (final estimates)
   double within_2sigma = 0.0;       // fraction of (pose, axis) errors inside +-2 sigma
   // With a refinement: the bundle adjustment of the selected poses and their features,
-  // started from the filter's estimate (< 0: not refined).
+  // started from the filter's estimate (< 0: not refined), and its solve's seconds. With the
+  // observation gate that is the refinement's adjustment (Refinement::refined()), not the
+  // check's.
   double refined_ate_rmse_m = -1.0;
   double seconds_ba = 0.0;
   std::vector<PoseErrorRecord> pose_errors;

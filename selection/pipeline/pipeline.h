@@ -77,7 +77,8 @@ struct PipelineResult {
   // composed with the registration for the others; nullopt where the frame was not placed.
   std::vector<std::optional<Eigen::Isometry3d>> T_w_c;
   // With a filter holding poses: its estimate with the pose covariances, and the bundle-
-  // adjustment problem it defines (its estimate, the observations and Q it used).
+  // adjustment problem it defines (its estimate, the observations and Q it used, and where
+  // its observation gate took them otherwise every registered observation).
   bool has_estimate = false;
   SlamEstimate estimate;
   BundleAdjustmentProblem problem;

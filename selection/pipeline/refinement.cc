@@ -46,7 +46,7 @@ Json SolverToJson(const BundleAdjustmentResult& r) {
 
 Json DepthAlignmentToJson(const Refinement& refinement) {
   const DepthAlignmentStats& stats = refinement.depth_stats;
-  const FilterSmootherComparison& change = refinement.change_from_smoothed;
+  const FilterSmootherComparison& change = refinement.change_from_features;
   return Json::Object()
       .Set("rounds", stats.rounds)
       .Set("pairs_tried", stats.pairs_tried)
@@ -86,13 +86,29 @@ BundleAdjustmentProblem WithRegistered(const BundleAdjustmentProblem& problem) {
   return registered;
 }
 
-// The features' solve with every registered observation into refinement->registered, and how
-// many of those the gate refused its rejection rounds kept (a frame observes a feature
-// once). An interruption is the refinement's failure; another failure leaves
-// registered_used false, with a warning.
+// The registered observations the filter's gate refused: those of frame and feature pairs
+// the problem's own observations lack (a frame observes a feature once).
+std::set<std::pair<int, int64_t>> Refused(const BundleAdjustmentProblem& problem) {
+  std::set<std::pair<int, int64_t>> taken, refused;
+  for (const BundleAdjustmentObservation& o : problem.observations) {
+    taken.emplace(o.frame_id, o.observation.feature_id);
+  }
+  for (const BundleAdjustmentObservation& o : problem.registered) {
+    if (!taken.count({o.frame_id, o.observation.feature_id})) {
+      refused.emplace(o.frame_id, o.observation.feature_id);
+    }
+  }
+  return refused;
+}
+
+// The features' solve of `registered` (WithRegistered(problem)) into refinement->registered, and
+// how many of the gate's refusals its rejection rounds kept. An interruption is the refinement's
+// failure; another failure leaves registered_used false, with a warning.
 void SolveRegistered(const BundleAdjustmentProblem& problem,
                      const BundleAdjustmentProblem& registered, const PinholeCamera& camera,
                      const BundleAdjustmentOptions& ba, Refinement* refinement) {
+  const std::set<std::pair<int, int64_t>> refused = Refused(problem);
+  refinement->refused = static_cast<int>(refused.size());
   refinement->registered = SolveBundleAdjustment(registered, camera, ba);
   const std::string failure = FeaturesFailure(registered, refinement->registered);
   if (refinement->registered.interrupted) {
@@ -101,26 +117,25 @@ void SolveRegistered(const BundleAdjustmentProblem& problem,
   }
   if (!failure.empty()) {
     refinement->warnings.push_back(failure +
-                                   " with every registered observation; the "
-                                   "refinement rests on the filter's own");
+                                   " with every registered observation; the refinement rests "
+                                   "on the filter's own");
     return;
   }
   refinement->registered_used = true;
-  std::set<std::pair<int, int64_t>> taken, refused;
-  for (const BundleAdjustmentObservation& o : problem.observations) {
-    taken.emplace(o.frame_id, o.observation.feature_id);
-  }
-  for (const BundleAdjustmentObservation& o : registered.observations) {
-    if (!taken.count({o.frame_id, o.observation.feature_id})) {
-      refused.emplace(o.frame_id, o.observation.feature_id);
-    }
-  }
   int rejected = 0;
   for (const BundleAdjustmentObservation& o : refinement->registered.rejected) {
     rejected += static_cast<int>(refused.count({o.frame_id, o.observation.feature_id}));
   }
-  refinement->refused = static_cast<int>(refused.size());
   refinement->refused_kept = refinement->refused - rejected;
+}
+
+// `solved` again from `problem` with `ba`'s covariances (after the solve meant to bring them
+// failed), its failure the refinement's.
+void SolveAgainWithCovariances(const BundleAdjustmentProblem& problem, const PinholeCamera& camera,
+                               const BundleAdjustmentOptions& ba, BundleAdjustmentResult* solved,
+                               Refinement* refinement) {
+  *solved = SolveBundleAdjustment(problem, camera, ba);
+  refinement->failure = FeaturesFailure(problem, *solved);
 }
 
 }  // namespace
@@ -130,19 +145,16 @@ Refinement Refine(const BundleAdjustmentProblem& problem, const PinholeCamera& c
                   const DepthAlignmentOptions& depth, const RangeClouds* clouds) {
   Refinement refinement;
   const auto start = std::chrono::steady_clock::now();
-  // With clouds to align, the depth-aligned solve is the refinement and brings its own
-  // covariances; the features' solves compute theirs only if they turn out the refinement.
+  // Only the solve that is the refinement computes covariances: with clouds to align the
+  // depth-aligned one, else the registered one when tried, else the check's; a fallback
+  // solves again for them.
+  const auto no_covariances = [](const BundleAdjustmentResult&) { return false; };
   const bool clouds_given = clouds != nullptr && depth.rounds > 0 && !clouds->clouds.empty();
   refinement.registered_tried = ba.refine_registered && !problem.registered.empty();
   BundleAdjustmentOptions features_ba = ba;
-  if (clouds_given) {
-    features_ba.covariances_wanted = [](const BundleAdjustmentResult&) { return false; };
-  }
-  // The check's solve computes covariances only when it is the refinement's features' solve.
+  if (clouds_given) features_ba.covariances_wanted = no_covariances;
   BundleAdjustmentOptions check_ba = features_ba;
-  if (refinement.registered_tried) {
-    check_ba.covariances_wanted = [](const BundleAdjustmentResult&) { return false; };
-  }
+  if (refinement.registered_tried) check_ba.covariances_wanted = no_covariances;
   refinement.smoothed = SolveBundleAdjustment(problem, camera, check_ba);
   refinement.failure = FeaturesFailure(problem, refinement.smoothed);
   BundleAdjustmentProblem registered;
@@ -150,13 +162,13 @@ Refinement Refine(const BundleAdjustmentProblem& problem, const PinholeCamera& c
     registered = WithRegistered(problem);
     SolveRegistered(problem, registered, camera, features_ba, &refinement);
     if (refinement.ok() && !refinement.registered_used && !clouds_given && ba.compute_covariances) {
-      refinement.smoothed = SolveBundleAdjustment(problem, camera, features_ba);
+      SolveAgainWithCovariances(problem, camera, features_ba, &refinement.smoothed, &refinement);
     }
   }
-  const BundleAdjustmentProblem& features = refinement.registered_used ? registered : problem;
+  const BundleAdjustmentProblem& solved = refinement.registered_used ? registered : problem;
   refinement.depth_alignment_tried = clouds_given && refinement.ok();
   if (refinement.depth_alignment_tried) {
-    BundleAdjustmentProblem started = features;
+    BundleAdjustmentProblem started = solved;
     started.T_w_c = refinement.features().T_w_c;
     started.p_w = refinement.features().p_w;
     refinement.depth_aligned = SolveWithDepthAlignment(started, camera, clouds->clouds, ba, depth,
@@ -173,10 +185,10 @@ Refinement Refine(const BundleAdjustmentProblem& problem, const PinholeCamera& c
       // The same solve again, now with the covariances it left out (the same result with
       // one solver thread; Ceres' threads may sum in another order).
       if (ba.compute_covariances) {
-        BundleAdjustmentResult& solved =
-            refinement.registered_used ? refinement.registered : refinement.smoothed;
-        solved = SolveBundleAdjustment(features, camera, ba);
-        refinement.failure = FeaturesFailure(features, solved);
+        SolveAgainWithCovariances(
+            solved, camera, ba,
+            refinement.registered_used ? &refinement.registered : &refinement.smoothed,
+            &refinement);
       }
     }
   }
@@ -188,7 +200,7 @@ Refinement Refine(const BundleAdjustmentProblem& problem, const PinholeCamera& c
         CompareFilterToSmoother(filter_estimate, SmootherEstimate(refinement.registered));
   }
   if (refinement.depth_alignment_tried) {
-    refinement.change_from_smoothed = CompareFilterToSmoother(
+    refinement.change_from_features = CompareFilterToSmoother(
         SmootherEstimate(refinement.features()), SmootherEstimate(refinement.depth_aligned));
   }
   return refinement;
@@ -209,13 +221,14 @@ Json RefinementToJson(const Refinement& refinement) {
   Json json = ComparisonToJson(refinement.comparison, true);
   json.Set("ba", SolverToJson(refinement.smoothed));
   if (refinement.registered_tried) {
-    json.Set("registered",
-             Json::Object()
-                 .Set("used", refinement.registered_used)
-                 .Set("refused_by_the_gate", refinement.refused)
-                 .Set("refused_kept", refinement.refused_kept)
-                 .Set("filter_vs_this", ComparisonToJson(refinement.registered_comparison, false))
-                 .Set("ba", SolverToJson(refinement.registered)));
+    Json registered = Json::Object()
+                          .Set("used", refinement.registered_used)
+                          .Set("refused_by_the_gate", refinement.refused);
+    if (refinement.registered_used) {
+      registered.Set("refused_kept", refinement.refused_kept)
+          .Set("filter_vs_this", ComparisonToJson(refinement.registered_comparison, false));
+    }
+    json.Set("registered", registered.Set("ba", SolverToJson(refinement.registered)));
   }
   if (refinement.depth_alignment_tried)
     json.Set("depth_alignment", DepthAlignmentToJson(refinement));

@@ -1,7 +1,9 @@
 // The batch refinement of a filter's estimate: the bundle adjustment of its problem (the
-// smoother, the reference the filter is checked against) and, given range clouds of the
-// frames, the dense alignment of their surfaces on top of it (backend/depth_alignment.h).
-// `ieslam run --refine` and `ieslam refine` both refine through here.
+// smoother, the reference the filter is checked against), with the problem's registered
+// observations a second one on every observation the front end registered, and, given range
+// clouds of the frames, the dense alignment of their surfaces on top of that
+// (backend/depth_alignment.h). `ieslam run --refine` and `ieslam refine` both refine through
+// here.
 #pragma once
 
 #include <map>
@@ -32,15 +34,16 @@ struct Refinement {
   BundleAdjustmentResult smoothed;
   // The filter's estimate against `smoothed`.
   FilterSmootherComparison comparison;
-  // With BundleAdjustmentOptions::refine_registered and a problem whose `registered`
-  // observations differ from the filter's: the bundle adjustment of the features with those
-  // (every registered observation, its stated Q), from the filter's estimate; the
-  // refinement's features when usable.
+  // With BundleAdjustmentOptions::refine_registered and a problem with `registered`
+  // observations (the gate took some otherwise): the bundle adjustment of the features with
+  // those (every registered observation, its stated Q), from the filter's estimate; the
+  // refinement's features when usable (a failure other than an interruption leaves that to
+  // `smoothed`, with a warning).
   bool registered_tried = false;
   bool registered_used = false;
   BundleAdjustmentResult registered;
-  int refused = 0;       // registered observations the filter's gate refused
-  int refused_kept = 0;  // of them, what `registered`'s rejection rounds kept
+  int refused = 0;       // registered observations the filter's gate refused (when tried)
+  int refused_kept = 0;  // of them, what `registered`'s rejection rounds kept (when used)
   // The filter's estimate against `registered` (when used): how far the filter is from the
   // adjustment of all the data, not only of what it took.
   FilterSmootherComparison registered_comparison;
@@ -54,7 +57,7 @@ struct Refinement {
   int depth_frames = 0;  // frames with a cloud
   int depth_frames_left_out = 0;
   // Where depth_aligned differs from the features' solve it started from (when tried).
-  FilterSmootherComparison change_from_smoothed;
+  FilterSmootherComparison change_from_features;
   double seconds = 0.0;  // every solve
   std::vector<std::string> warnings;
   // Why there is no refinement to use: the problem has no observations, the bundle
@@ -75,8 +78,9 @@ struct Refinement {
 // Bundle-adjusts `problem` (started from its poses and features) and compares the result with
 // `filter_estimate`; with ba.refine_registered, bundle-adjusts it again with its registered
 // observations (when it has them); with `clouds` and depth.rounds > 0, goes on with the clouds'
-// pairwise alignments. An interruption (ba.stop) anywhere, like a failed bundle adjustment, is
-// `failure`: a half-done refinement is no refinement.
+// pairwise alignments. An interruption (ba.stop) anywhere, like a failure of the check's
+// bundle adjustment (the one the filter is compared with) or of the depth-aligned refinement's
+// fallback, is `failure`: a half-done refinement is no refinement.
 Refinement Refine(const BundleAdjustmentProblem& problem, const PinholeCamera& camera,
                   const SlamEstimate& filter_estimate, const BundleAdjustmentOptions& ba,
                   const DepthAlignmentOptions& depth, const RangeClouds* clouds = nullptr);
@@ -86,7 +90,7 @@ Refinement Refine(const BundleAdjustmentProblem& problem, const PinholeCamera& c
 Trajectory RefinedTrajectory(const Refinement& refinement, const std::map<int, double>& timestamps);
 
 // A report's filter_vs_smoother: the comparison, the solver's summary as "ba" and, when tried,
-// "depth_alignment".
+// "registered" (the registered solve's counts, summary and comparison) and "depth_alignment".
 Json RefinementToJson(const Refinement& refinement);
 
 }  // namespace ieslam

@@ -66,6 +66,12 @@ Json PoseErrorsToJson(const SelectorOptions& row, const KnownAssociationMetrics&
 
 }  // namespace
 
+RunOptions StudyRunOptions() {
+  RunOptions config;
+  config.pipeline.filter.gate_chi2 = 0.0;
+  return config;
+}
+
 bool SimulationStudyOptions::Check(std::string* why) const {
   auto fail = [why](const std::string& message) {
     if (why != nullptr) *why = message;

@@ -15,8 +15,15 @@
 #include "frontend/simulation/paper_simulation.h"
 #include "selection/keyframe_selector.h"
 #include "selection/pipeline/known_association_run.h"
+#include "selection/pipeline/run_options.h"
 
 namespace ieslam {
+
+// The options a study starts from: run's without the observation gate. The paper's
+// experiment knows its data association and draws the noise its Q states, so the gate would
+// reject nothing it should and add its cost to the filters Table I times; a study's own
+// options may turn it on.
+RunOptions StudyRunOptions();
 
 struct SimulationStudyOptions {
   SimulationOptions simulation;  // the scene (its scene_seed) and the sensor
@@ -27,7 +34,7 @@ struct SimulationStudyOptions {
   uint32_t seed = 1;                        // scene seed; run r draws its noise from seed + r + 1
   std::vector<int> buffers = {2, 3, 4, 5};  // one info row each, after the all-frames row
   SelectorOptions selector;                 // every row's, but for its kind and buffer
-  InformationFilterOptions filter;
+  InformationFilterOptions filter = StudyRunOptions().pipeline.filter;
   BundleAdjustmentOptions ba;
 
   bool Check(std::string* why) const;

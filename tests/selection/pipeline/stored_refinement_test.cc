@@ -2,6 +2,7 @@
 #include "selection/pipeline/stored_refinement.h"
 
 #include <filesystem>
+#include <utility>
 
 #include <unistd.h>
 
@@ -56,6 +57,13 @@ RunResult* StoredRefinementTest::run_ = nullptr;
 TEST_F(StoredRefinementTest, WithTheDatasetItEqualsTheRunsRefinement) {
   const StoredRefinement later = RefineStoredRun(run_dir_.string(), dataset_, Options());
   EXPECT_TRUE(later.aligned_clouds);
+  // The observation gate refused some, so the refinement rests on the registered solve, which
+  // the stored problem reproduces too.
+  ASSERT_TRUE(run_->pipeline.refinement->registered_used);
+  EXPECT_TRUE(later.refinement.registered_used);
+  EXPECT_GT(later.refinement.refused, 0);
+  EXPECT_EQ(later.refinement.refused, run_->pipeline.refinement->refused);
+  EXPECT_EQ(later.refinement.refused_kept, run_->pipeline.refinement->refused_kept);
   const Trajectory now = RefinedTrajectory(*run_->pipeline.refinement, run_->timestamps);
   ASSERT_EQ(later.refined.size(), now.size());
   for (size_t i = 0; i < now.size(); ++i) {
@@ -71,11 +79,18 @@ TEST_F(StoredRefinementTest, WithoutTheDatasetItIsTheBundleAdjustment) {
   const StoredRefinement later = RefineStoredRun(run_dir_.string(), nullptr, Options());
   EXPECT_FALSE(later.aligned_clouds);
   EXPECT_FALSE(later.refinement.depth_alignment_tried);
-  const BundleAdjustmentResult& now = run_->pipeline.refinement->smoothed;
-  ASSERT_EQ(later.refinement.smoothed.T_w_c.size(), now.T_w_c.size());
-  for (const auto& [frame, T] : now.T_w_c) {
-    EXPECT_EQ(later.refinement.smoothed.T_w_c.at(frame).matrix(), T.matrix()) << frame;
+  // The check's solve and the registered one, each as in the run (there without covariances:
+  // the depth-aligned solve was the refinement).
+  using Solves = std::pair<const BundleAdjustmentResult*, const BundleAdjustmentResult*>;
+  const Refinement& run = *run_->pipeline.refinement;
+  for (const auto& [now, then] : {Solves(&run.smoothed, &later.refinement.smoothed),
+                                  Solves(&run.features(), &later.refinement.features())}) {
+    ASSERT_EQ(then->T_w_c.size(), now->T_w_c.size());
+    for (const auto& [frame, T] : now->T_w_c) {
+      EXPECT_EQ(then->T_w_c.at(frame).matrix(), T.matrix()) << frame;
+    }
   }
+  EXPECT_EQ(&later.refinement.refined(), &later.refinement.registered);
 }
 
 TEST_F(StoredRefinementTest, StartedFromTheGroundTruthItMovesTheStart) {
