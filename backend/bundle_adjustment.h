@@ -189,7 +189,8 @@ struct BundleAdjustmentProblem {
 // a selected frame refers to a feature the filter does not know. With `registered_by_frame`
 // (the frames whose observations the gate took otherwise, as registered) `registered` holds
 // every selected frame's observations under the same rules: a frame's entry there where it
-// has one, else its filter's observations.
+// has one, else its filter's observations (a frame the gate left alone, or one a continued
+// run's map brought, which keeps only what the filter took).
 BundleAdjustmentProblem MakeProblemFromFilter(
     const InformationFilter& filter,
     const std::map<int, std::vector<FeatureObservation>>& observations_by_frame,
