@@ -119,6 +119,9 @@ const OptionTable<InformationFilterOptions>& InformationFilterOptions::Table() {
     t->Int("min_sightings", &O::min_sightings,
            "filter poses that see a feature before it enters the state (2: delayed)")
         .Range(1, 2);
+    t->Int("max_withdrawal_rounds", &O::max_withdrawal_rounds,
+           "end of a run: rounds withdrawing observations the estimate contradicts (0: none)")
+        .Min(0);
     t->Require([](const O& o) {
       return o.max_dense_pose_dim == 0 || o.max_dense_pose_dim >= 6
                  ? std::string()
@@ -165,11 +168,15 @@ struct InformationFilter::LinearizedBlock {
   // An earlier sighting, from a pose in the state.
   struct Earlier {
     int pose_offset = 0;
+    int frame_id = -1;
+    FeatureObservation observation;
+    Vector6d T_w_c = Vector6d::Zero();  // the pose's linearisation point
     Matrix6d I_cc = Matrix6d::Zero();
     Eigen::Matrix<double, 6, 3> I_cf = Eigen::Matrix<double, 6, 3>::Zero();
     Vector6d i_c = Vector6d::Zero();
   };
   int64_t feature_id = -1;
+  FeatureObservation observation;                 // from the pose being added
   bool is_new = false;                            // enters the state with this pose
   Eigen::Vector3d p_w = Eigen::Vector3d::Zero();  // linearisation point of the feature
   Eigen::Matrix3d I_ff = Eigen::Matrix3d::Zero();
@@ -259,7 +266,10 @@ void InformationFilter::LinearizeEarlierSightings(int frame_id,
   for (const FeatureSighting& sighting : sightings) {
     LinearizedBlock::Earlier earlier;
     earlier.pose_offset = pose_offset_.at(sighting.frame_id);
+    earlier.frame_id = sighting.frame_id;
+    earlier.observation = sighting.observation;
     const Vector6d T_w_c = state_.segment<6>(earlier.pose_offset);
+    earlier.T_w_c = T_w_c;
     ObservationJacobians jacobians;
     if (!LinearizeAt(T_w_c, block->p_w, &jacobians)) {
       std::ostringstream msg;
@@ -296,6 +306,7 @@ InformationFilter::Linearization InformationFilter::Linearize(
   for (const FeatureObservation& obs : observations) {
     Linearization::Block block;
     block.feature_id = obs.feature_id;
+    block.observation = obs;
     block.is_new = !HasFeature(obs.feature_id);
     if (block.is_new && !Enters(obs.feature_id)) {
       lin.deferred.push_back(obs);
@@ -531,6 +542,12 @@ void InformationFilter::Register(const Linearization& lin, int frame_id, int old
   }
   for (const FeatureObservation& obs : lin.deferred) {
     pending_[obs.feature_id].push_back({frame_id, obs});
+  }
+  for (const Linearization::Block& block : lin.blocks) {
+    for (const LinearizedBlock::Earlier& earlier : block.earlier) {
+      taken_.push_back({earlier.frame_id, earlier.observation, earlier.T_w_c, block.p_w});
+    }
+    taken_.push_back({frame_id, block.observation, lin.T_w_c, block.p_w});
   }
   pose_offset_[frame_id] = new_dim - 6;
   frame_ids_.push_back(frame_id);

@@ -104,6 +104,13 @@ struct InformationFilterOptions {
   // No more: a new pose is tied to the map only by features in the state or entering with
   // it, and at 3 the second pose would have neither.
   int min_sightings = 1;
+  // At the end of a run (WithdrawInconsistent) every observation the filter took is tested
+  // again, at the final estimate, against gate_chi2; the failing ones are withdrawn and the
+  // state recovered, up to this many rounds (0: never; nothing is withdrawn without the gate).
+  // The gate tests an observation against the map as it stood when its frame entered, and
+  // cannot test a feature's first sighting at all; the bundle adjustment's rejection rounds
+  // are this test at its own optimum.
+  int max_withdrawal_rounds = 5;
 
   // The options' registration: keys, help, checks (core/option_table.h).
   static const OptionTable<InformationFilterOptions>& Table();
@@ -141,6 +148,31 @@ struct FeatureSighting {
 struct PendingFeature {
   int64_t id = -1;
   std::vector<FeatureSighting> sightings;  // in the order the poses entered
+};
+
+// An observation the filter took in, with the point its information was linearised at: what
+// withdrawing it subtracts.
+struct TakenObservation {
+  int frame_id = -1;
+  FeatureObservation observation;
+  Vector6d T_w_c = Vector6d::Zero();              // the pose's linearisation point
+  Eigen::Vector3d p_w = Eigen::Vector3d::Zero();  // the feature's
+  bool withdrawn = false;
+};
+
+// What InformationFilter::WithdrawInconsistent did.
+struct WithdrawalStatistics {
+  int tested = 0;        // observations tested in the first round
+  int withdrawn = 0;     // in all rounds
+  int kept_failing = 0;  // failing in the last round, kept as their feature's last observation
+                         // or among their pose's last min_known_features (the worst of a
+                         // feature's failing ones only)
+  int rounds = 0;        // rounds that withdrew something
+  // Observations withdrawn and all put back, the matrix without them not being positive
+  // definite (`withdrawn` is then 0); 0 normally.
+  int put_back = 0;
+  int cg_iterations = 0;  // of the rounds' solves, in all
+  double seconds = 0.0;
 };
 
 // The three terms of an information gain (§V-A), in nats: the new features' own
@@ -226,6 +258,18 @@ class InformationFilter {
   void set_defer_recovery(bool defer) { defer_recovery_ = defer; }
   void Recover();
   bool recovery_pending() const { return recovery_pending_; }
+
+  // Tests each observation taken in (since the filter was created: a restored snapshot does
+  // not hold its observations' linearisation points) at the current estimate, chi-square with
+  // 3 dof against options.gate_chi2, and withdraws the worst failing one of each feature: its
+  // information, linearised where it was added, is subtracted from I and i, which is exact in
+  // information form. A feature keeps its last observation and a pose other than the first
+  // its last min_known_features. The state is then recovered and the rest tested again, up
+  // to options.max_withdrawal_rounds rounds. Does nothing without the gate. Should the
+  // matrix without them not be positive definite, they all go back in: the filter is as
+  // before.
+  WithdrawalStatistics WithdrawInconsistent();
+  const std::vector<TakenObservation>& taken_observations() const { return taken_; }
 
   // The filter as it stands (recovered).
   FilterSnapshot Snapshot() const;
@@ -384,6 +428,15 @@ class InformationFilter {
   // Throws DataError naming the frame when one cannot be linearised.
   void LinearizeEarlierSightings(int frame_id, const std::vector<FeatureSighting>& sightings,
                                  LinearizedBlock* block) const;
+  // Subtracts what `taken` added to I and i (at its linearisation points): `sign` -1
+  // withdraws it, +1 puts it back.
+  void AddTakenInformation(const TakenObservation& taken, double sign);
+  // One round of WithdrawInconsistent at the current state: marks the observations it
+  // withdraws (not yet subtracted) and returns their indices in taken_, counting them off
+  // what their features and poses have left.
+  std::vector<int> WithdrawalRound(int anchor, std::unordered_map<int64_t, int>* feature_left,
+                                   std::unordered_map<int, int>* pose_left,
+                                   WithdrawalStatistics* stats);
   // Records the new pose's and features' places once their update is accepted, and the
   // sightings that stay pending.
   void Register(const Linearization& lin, int frame_id, int old_dim, int new_dim);
@@ -415,6 +468,8 @@ class InformationFilter {
   std::unordered_map<int64_t, int> feature_offset_;
   // Features not in the state yet (min_sightings), by id: sightings in the order made.
   std::map<int64_t, std::vector<FeatureSighting>> pending_;
+  // Every observation in I, in the order taken (WithdrawInconsistent).
+  std::vector<TakenObservation> taken_;
   InformationFilterTimings timings_;
   bool defer_recovery_ = false;
   bool recovery_pending_ = false;

@@ -1,5 +1,7 @@
 #include "backend/upper_column_storage.h"
 
+#include <algorithm>
+
 #include <glog/logging.h>
 
 namespace ieslam {
@@ -14,6 +16,15 @@ void UpperColumnStorage::AddToDiagonalBlock(int first, const Eigen::MatrixXd& bl
     DCHECK_EQ(inner_[begin], first);
     for (int r = 0; r <= k; ++r) values_[begin + r] += block(r, k);
   }
+}
+
+void UpperColumnStorage::AddToEntry(int row, int col, double value) {
+  CHECK_LE(row, col);
+  CHECK_LT(col, dim());
+  const auto begin = inner_.begin() + outer_[col], end = inner_.begin() + outer_[col + 1];
+  const auto it = std::lower_bound(begin, end, row);
+  CHECK(it != end && *it == row) << "entry (" << row << ", " << col << ") is not stored";
+  values_[it - inner_.begin()] += value;
 }
 
 Eigen::MatrixXd UpperColumnStorage::DiagonalBlock(int first, int size) const {

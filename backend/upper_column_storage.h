@@ -32,6 +32,9 @@ class UpperColumnStorage {
   // Adds `block` to the dense diagonal block of columns [first, first + block.cols()),
   // which must be stored in full: the diagonal block is then the tail of each column.
   void AddToDiagonalBlock(int first, const Eigen::MatrixXd& block);
+  // Adds `value` to the stored entry (row, col), row <= col; CHECK-fails if the pattern
+  // does not hold it.
+  void AddToEntry(int row, int col, double value);
   // Copies the diagonal block out (to undo an update that failed).
   Eigen::MatrixXd DiagonalBlock(int first, int size) const;
   void SetDiagonalBlock(int first, const Eigen::MatrixXd& block);

@@ -589,6 +589,10 @@ SelectionResult KeyframeSelector::RunFrames(
     case SelectorKind::kDeadReckoning:
       break;
   }
+  if (!result.interrupted) {
+    result.withdrawal = filter->WithdrawInconsistent();
+    result.seconds_filter += result.withdrawal.seconds;
+  }
   return result;
 }
 

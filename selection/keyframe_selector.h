@@ -101,6 +101,9 @@ struct SelectionResult {
   std::vector<double> seconds_per_frame_by_quarter;
   // What the filter's observation gate kept out of the frames added (or refused).
   GateStatistics gate;
+  // What the gate's test at the final estimate took back out of the filter (a finished
+  // run's, not an interrupted one's). `observations` keeps what the filter took in.
+  WithdrawalStatistics withdrawal;
 };
 
 // Where a selection goes on from (mapping continued from a saved map): the filter already

@@ -205,6 +205,17 @@ Json GateToJson(const GateStatistics& gate) {
       .Set("noise_scale", NoiseScalesToJson(gate.noise_scales));
 }
 
+Json WithdrawalToJson(const WithdrawalStatistics& withdrawal) {
+  return Json::Object()
+      .Set("tested", withdrawal.tested)
+      .Set("withdrawn", withdrawal.withdrawn)
+      .Set("kept_failing", withdrawal.kept_failing)
+      .Set("rounds", withdrawal.rounds)
+      .Set("put_back", withdrawal.put_back)
+      .Set("cg_iterations", withdrawal.cg_iterations)
+      .Set("seconds", withdrawal.seconds);
+}
+
 Json SavedMapToJson(const SavedMap& map) {
   int64_t keypoints = 0;
   for (const MapBaseFrame& b : map.base_frames) keypoints += b.features.size();
@@ -255,7 +266,9 @@ Json RunReport(const Dataset& dataset, const RunOptions& options, const RunResul
   }
   if (run.saved_map) report.Set("saved_map", SavedMapToJson(*run.saved_map));
   if (run.velocity_counts) report.Set("rolling_shutter", RollingShutterToJson(dataset, run));
-  report.Set("observation_gate", GateToJson(p.selection.gate));
+  report.Set(
+      "observation_gate",
+      GateToJson(p.selection.gate).Set("withdrawal", WithdrawalToJson(p.selection.withdrawal)));
   // The dataset's warnings (printed when it was opened) and the run's, as printed.
   std::vector<std::string> warnings = dataset.warnings();
   warnings.insert(warnings.end(), run.warnings.begin(), run.warnings.end());
