@@ -162,12 +162,12 @@ struct TakenObservation {
 
 // What InformationFilter::WithdrawInconsistent did.
 struct WithdrawalStatistics {
-  int tested = 0;        // observations tested in the first round
-  int withdrawn = 0;     // in all rounds
-  int kept_failing = 0;  // failing in the last round, kept as their feature's last observation
-                         // or among their pose's last min_known_features (the worst of a
-                         // feature's failing ones only)
-  int rounds = 0;        // rounds that withdrew something
+  int tested = 0;     // observations held at the start
+  int withdrawn = 0;  // in all rounds
+  int rounds = 0;     // rounds that withdrew something
+  // Observations failing the gate at the final estimate that stay: kept by the rules (a
+  // feature's last, a pose's last ties), or left when the rounds ran out.
+  int still_failing = 0;
   // Observations withdrawn and all put back, the matrix without them not being positive
   // definite (`withdrawn` is then 0); 0 normally.
   int put_back = 0;
@@ -263,8 +263,9 @@ class InformationFilter {
   // not hold its observations' linearisation points) at the current estimate, chi-square with
   // 3 dof against options.gate_chi2, and withdraws the worst failing one of each feature: its
   // information, linearised where it was added, is subtracted from I and i, which is exact in
-  // information form. A feature keeps its last observation and a pose other than the first
-  // its last min_known_features. The state is then recovered and the rest tested again, up
+  // information form. A feature keeps its last observation, a pose other than the first
+  // min_known_features observations of features other poses see too, and every pose its tie
+  // to the first through them. The state is then recovered and the rest tested again, up
   // to options.max_withdrawal_rounds rounds. Does nothing without the gate. Should the
   // matrix without them not be positive definite, they all go back in: the filter is as
   // before.
@@ -431,12 +432,9 @@ class InformationFilter {
   // Subtracts what `taken` added to I and i (at its linearisation points): `sign` -1
   // withdraws it, +1 puts it back.
   void AddTakenInformation(const TakenObservation& taken, double sign);
-  // One round of WithdrawInconsistent at the current state: marks the observations it
-  // withdraws (not yet subtracted) and returns their indices in taken_, counting them off
-  // what their features and poses have left.
-  std::vector<int> WithdrawalRound(int anchor, std::unordered_map<int64_t, int>* feature_left,
-                                   std::unordered_map<int, int>* pose_left,
-                                   WithdrawalStatistics* stats);
+  // The observations of taken_ still in I that fail the gate at the current state, as
+  // (squared whitened residual, index), worst first.
+  std::vector<std::pair<double, int>> FailingObservations() const;
   // Records the new pose's and features' places once their update is accepted, and the
   // sightings that stay pending.
   void Register(const Linearization& lin, int frame_id, int old_dim, int new_dim);
@@ -468,8 +466,13 @@ class InformationFilter {
   std::unordered_map<int64_t, int> feature_offset_;
   // Features not in the state yet (min_sightings), by id: sightings in the order made.
   std::map<int64_t, std::vector<FeatureSighting>> pending_;
-  // Every observation in I, in the order taken (WithdrawInconsistent).
+  // The observations taken in since the filter was created or restored, in that order, the
+  // withdrawn ones flagged (WithdrawInconsistent).
   std::vector<TakenObservation> taken_;
+  // Poses and features a snapshot restored: the first frame_ids_ and feature_ids_ (their
+  // observations are not in taken_).
+  int restored_poses_ = 0;
+  int restored_features_ = 0;
   InformationFilterTimings timings_;
   bool defer_recovery_ = false;
   bool recovery_pending_ = false;

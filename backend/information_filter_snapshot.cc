@@ -253,7 +253,9 @@ void InformationFilter::Restore(const FilterSnapshot& s) {
   pose_offset_ = std::move(pose_offset);
   feature_offset_ = std::move(feature_offset);
   for (const auto& frame_offset : s.pose_offsets) frame_ids_.push_back(frame_offset.first);
+  restored_poses_ = static_cast<int>(frame_ids_.size());
   for (const auto& id_offset : s.feature_offsets) feature_ids_.push_back(id_offset.first);
+  restored_features_ = static_cast<int>(feature_ids_.size());
   pending_ = std::move(pending);
   recovery_pending_ = false;
 }

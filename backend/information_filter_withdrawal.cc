@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <unordered_map>
 #include <unordered_set>
@@ -47,7 +48,9 @@ bool SolveNear(const Eigen::Map<const Eigen::SparseMatrix<double>>& upper,
     if (!(rz >= 0.0)) return false;
     if (std::sqrt(rz) < tolerance) return true;
     const Eigen::VectorXd Ap = A * p;
-    const double alpha = rz / p.dot(Ap);
+    const double curvature = p.dot(Ap);
+    if (!(curvature > 0.0)) return false;  // not positive definite along p
+    const double alpha = rz / curvature;
     *x += alpha * p;
     r -= alpha * Ap;
     z = near.Solve(r);
@@ -57,6 +60,104 @@ bool SolveNear(const Eigen::Map<const Eigen::SparseMatrix<double>>& upper,
   }
   return rz >= 0.0 && std::sqrt(rz) < tolerance;
 }
+
+// What stays in I of each feature and pose as the rounds withdraw. A feature keeps one
+// observation; a pose other than the anchor keeps min_ties ties (observations of features
+// that another observation holds too), as a pose needs to enter the filter, and every pose
+// stays tied to the anchor through them. What a snapshot restored is not in `taken`: its
+// poses are taken as tied to the anchor, and each of its features as seen from them once
+// more (its observations there are in I for good).
+class KeptObservations {
+ public:
+  KeptObservations(const std::vector<TakenObservation>& taken, const std::vector<int>& restored,
+                   const std::unordered_set<int64_t>& restored_features, int anchor, int min_ties)
+      : taken_(taken),
+        restored_(restored),
+        restored_features_(restored_features),
+        anchor_(anchor),
+        min_ties_(min_ties) {
+    for (int k = 0; k < static_cast<int>(taken.size()); ++k) {
+      if (!taken[k].withdrawn) by_feature_[taken[k].observation.feature_id].push_back(k);
+    }
+    for (const auto& [feature, kept] : by_feature_) {
+      if (Seen(feature) < 2) continue;
+      for (int k : kept) ++ties_[taken[k].frame_id];
+    }
+  }
+
+  // Counts taken[k] off if what stays keeps the rules (but for the anchor's connection, which
+  // Connected() checks once a round); false, with nothing changed, if not.
+  bool Withdraw(int k) {
+    const int64_t feature = taken_[k].observation.feature_id;
+    std::vector<int>& kept = by_feature_[feature];
+    if (kept.size() < 2) return false;
+    const int frame = taken_[k].frame_id;
+    // Seen twice, the other observation's pose loses its tie too.
+    const int other = Seen(feature) == 2 ? taken_[kept[0] == k ? kept[1] : kept[0]].frame_id : -1;
+    if (!KeepsTies(frame) || (other >= 0 && !KeepsTies(other))) return false;
+    kept.erase(std::find(kept.begin(), kept.end(), k));
+    --ties_[frame];
+    if (other >= 0) --ties_[other];
+    return true;
+  }
+
+  void PutBack(int k) {
+    const int64_t feature = taken_[k].observation.feature_id;
+    std::vector<int>& kept = by_feature_[feature];
+    kept.insert(std::lower_bound(kept.begin(), kept.end(), k), k);
+    if (Seen(feature) == 2) {
+      for (int j : kept) ++ties_[taken_[j].frame_id];
+    } else {
+      ++ties_[taken_[k].frame_id];
+    }
+  }
+
+  // Whether every pose of a kept observation is tied to the anchor through kept observations.
+  bool Connected() const {
+    std::unordered_map<int, int> parent;
+    const std::function<int(int)> root = [&](int frame) {
+      auto it = parent.try_emplace(frame, frame).first;
+      if (it->second == frame) return frame;
+      const int r = root(it->second);
+      parent[frame] = r;
+      return r;
+    };
+    const auto join = [&](int a, int b) { parent[root(a)] = root(b); };
+    for (int frame : restored_) join(frame, anchor_);
+    for (const auto& [feature, kept] : by_feature_) {
+      const int first = restored_features_.count(feature) > 0 ? anchor_ : taken_[kept[0]].frame_id;
+      for (int k : kept) join(taken_[k].frame_id, first);
+    }
+    const int anchor_root = root(anchor_);
+    for (const auto& [feature, kept] : by_feature_) {
+      for (int k : kept) {
+        if (root(taken_[k].frame_id) != anchor_root) return false;
+      }
+    }
+    return true;
+  }
+
+ private:
+  // The observations of `feature` in I: the kept ones, and one for a restored feature's.
+  int Seen(int64_t feature) const {
+    const auto it = by_feature_.find(feature);
+    const int kept = it == by_feature_.end() ? 0 : static_cast<int>(it->second.size());
+    return kept + (restored_features_.count(feature) > 0 ? 1 : 0);
+  }
+  bool KeepsTies(int frame) const {
+    if (frame == anchor_) return true;
+    const auto it = ties_.find(frame);
+    return it != ties_.end() && it->second > min_ties_;
+  }
+
+  const std::vector<TakenObservation>& taken_;
+  const std::vector<int>& restored_;
+  const std::unordered_set<int64_t>& restored_features_;
+  const int anchor_;
+  const int min_ties_;
+  std::unordered_map<int64_t, std::vector<int>> by_feature_;  // kept, ascending
+  std::unordered_map<int, int> ties_;                         // by frame
+};
 
 }  // namespace
 
@@ -90,77 +191,64 @@ void InformationFilter::AddTakenInformation(const TakenObservation& taken, doubl
   info_vector_.segment<3>(feature) += sign * (JfT_W * z_lin);
 }
 
-std::vector<int> InformationFilter::WithdrawalRound(int anchor,
-                                                    std::unordered_map<int64_t, int>* feature_left,
-                                                    std::unordered_map<int, int>* pose_left,
-                                                    WithdrawalStatistics* stats) {
-  std::vector<std::pair<double, int>> failing;  // (squared residual, index in taken_)
-  int tested = 0;
+std::vector<std::pair<double, int>> InformationFilter::FailingObservations() const {
+  std::vector<std::pair<double, int>> failing;
   for (int k = 0; k < static_cast<int>(taken_.size()); ++k) {
     const TakenObservation& t = taken_[k];
     if (t.withdrawn) continue;
-    ++tested;
     const double r2 =
-        SquaredResidual(t.observation, pose(t.frame_id), FeatureEstimate(t.observation.feature_id),
-                        camera_, options_.min_depth_m);
+        SquaredResidual(t.observation, state_.segment<6>(pose_offset_.at(t.frame_id)),
+                        FeatureEstimate(t.observation.feature_id), camera_, options_.min_depth_m);
     if (r2 > options_.gate_chi2) failing.emplace_back(r2, k);
   }
-  if (stats->rounds == 0) stats->tested = tested;
   // Worst first; ties in the order taken, for the same result on every run.
   std::sort(failing.begin(), failing.end(), [](const auto& a, const auto& b) {
     return a.first != b.first ? a.first > b.first : a.second < b.second;
   });
-  // One observation of a feature a round: a wrong one pulls its feature, and with it the
-  // feature's other observations past the gate until it is gone.
-  std::vector<int> withdrawn;
-  std::unordered_set<int64_t> features_done;
-  stats->kept_failing = 0;
-  for (const auto& [r2, k] : failing) {
-    TakenObservation& t = taken_[k];
-    if (!features_done.insert(t.observation.feature_id).second) continue;
-    int& on_feature = (*feature_left)[t.observation.feature_id];
-    int& on_pose = (*pose_left)[t.frame_id];
-    if (on_feature <= 1 || (t.frame_id != anchor && on_pose <= options_.min_known_features)) {
-      ++stats->kept_failing;
-      continue;
-    }
-    --on_feature;
-    --on_pose;
-    t.withdrawn = true;
-    withdrawn.push_back(k);
-  }
-  return withdrawn;
+  return failing;
 }
 
 WithdrawalStatistics InformationFilter::WithdrawInconsistent() {
   const auto start = std::chrono::steady_clock::now();
   CheckRecovered();
   WithdrawalStatistics stats;
-  const double gate = options_.gate_chi2;
-  if (gate <= 0.0 || options_.max_withdrawal_rounds <= 0 || taken_.empty()) return stats;
-  // What stays in I of each feature and pose (the observations of a restored snapshot are not
-  // in taken_, so a pose or feature they hold is counted short: only ever the safer way).
-  std::unordered_map<int64_t, int> feature_left;
-  std::unordered_map<int, int> pose_left;
-  for (const TakenObservation& t : taken_) {
-    if (t.withdrawn) continue;
-    ++feature_left[t.observation.feature_id];
-    ++pose_left[t.frame_id];
+  if (options_.gate_chi2 <= 0.0 || options_.max_withdrawal_rounds <= 0 || taken_.empty()) {
+    return stats;
   }
-  const int anchor = frame_ids_.front();
+  for (const TakenObservation& t : taken_) stats.tested += t.withdrawn ? 0 : 1;
+  const std::vector<int> restored(frame_ids_.begin(), frame_ids_.begin() + restored_poses_);
+  const std::unordered_set<int64_t> restored_features(feature_ids_.begin(),
+                                                      feature_ids_.begin() + restored_features_);
+  KeptObservations kept(taken_, restored, restored_features, frame_ids_.front(),
+                        options_.min_known_features);
   // The rounds' states are solved by conjugate gradients preconditioned with the factor of
-  // the matrix before them (a few hundred rank-3 changes at most); the factor anew from the
+  // the matrix before them (a few hundred rank-3 changes at most); a factor anew from the
   // matrix at the end makes them exact, and the filter's queries with them.
   const Eigen::VectorXd state_before = state_;
   Factor().MakeExact();
   std::unique_ptr<InformationFactor> before = std::move(factor_);
   std::vector<int> all_withdrawn;
   for (int round = 0; round < options_.max_withdrawal_rounds; ++round) {
-    std::vector<int> withdrawn = WithdrawalRound(anchor, &feature_left, &pose_left, &stats);
+    // One observation of a feature a round: a wrong one pulls its feature, and with it the
+    // feature's other observations past the gate until it is gone.
+    std::unordered_set<int64_t> features_done;
+    std::vector<int> withdrawn;
+    for (const auto& [r2, k] : FailingObservations()) {
+      const int64_t feature = taken_[k].observation.feature_id;
+      if (features_done.count(feature) > 0 || !kept.Withdraw(k)) continue;
+      features_done.insert(feature);
+      withdrawn.push_back(k);
+    }
+    if (!kept.Connected()) {
+      for (int k : withdrawn) kept.PutBack(k);
+      withdrawn.clear();
+    }
     if (withdrawn.empty()) break;
-    for (int k : withdrawn) AddTakenInformation(taken_[k], -1.0);
+    for (int k : withdrawn) {
+      taken_[k].withdrawn = true;
+      AddTakenInformation(taken_[k], -1.0);
+    }
     all_withdrawn.insert(all_withdrawn.end(), withdrawn.begin(), withdrawn.end());
-    stats.withdrawn += static_cast<int>(withdrawn.size());
     ++stats.rounds;
     Eigen::VectorXd x = state_;
     int iterations = 0;
@@ -174,23 +262,26 @@ WithdrawalStatistics InformationFilter::WithdrawInconsistent() {
     factor_ = std::move(before);
   } else {
     // The dense factor keeps sums of the blocks it was given: a factor anew from the matrix.
+    before.reset();
     try {
       InformationFactor& factor = Factor();
       factor.MakeExact();
       state_ = factor.Solve(info_vector_);
+      stats.withdrawn = static_cast<int>(all_withdrawn.size());
     } catch (const DataError&) {
-      // Not expected with a feature's last observation and a pose's last few kept; should it
-      // happen, they all go back in and the filter is as it was.
+      // The rules above should prevent it; should it happen, they all go back in, and the
+      // filter is as it was (its matrix and vector to rounding).
       for (int k : all_withdrawn) {
         AddTakenInformation(taken_[k], 1.0);
         taken_[k].withdrawn = false;
       }
-      factor_ = std::move(before);
+      factor_.reset();
+      Factor().MakeExact();
       state_ = state_before;
-      stats.put_back = stats.withdrawn;
-      stats.withdrawn = 0;
+      stats.put_back = static_cast<int>(all_withdrawn.size());
     }
   }
+  stats.still_failing = static_cast<int>(FailingObservations().size());
   stats.seconds = SecondsSince(start);
   return stats;
 }

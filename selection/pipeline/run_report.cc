@@ -209,8 +209,8 @@ Json WithdrawalToJson(const WithdrawalStatistics& withdrawal) {
   return Json::Object()
       .Set("tested", withdrawal.tested)
       .Set("withdrawn", withdrawal.withdrawn)
-      .Set("kept_failing", withdrawal.kept_failing)
       .Set("rounds", withdrawal.rounds)
+      .Set("still_failing", withdrawal.still_failing)
       .Set("put_back", withdrawal.put_back)
       .Set("cg_iterations", withdrawal.cg_iterations)
       .Set("seconds", withdrawal.seconds);

@@ -600,6 +600,22 @@ int64_t FeatureSeenByAll(const Scene& scene, int num_poses, std::mt19937* rng) {
   return -1;
 }
 
+// Two filters over the same variables: the same state and log det, to rounding.
+void ExpectSameEstimate(const InformationFilter& a, const InformationFilter& b) {
+  ASSERT_EQ(a.state_dim(), b.state_dim());
+  EXPECT_LT((a.state() - b.state()).norm(), 1e-9);
+  EXPECT_NEAR(a.LogDetInformation(), b.LogDetInformation(), 1e-9 * std::abs(b.LogDetInformation()));
+}
+
+// The (frame, feature) of each observation `filter` withdrew.
+std::set<std::pair<int, int64_t>> Withdrawn(const InformationFilter& filter) {
+  std::set<std::pair<int, int64_t>> withdrawn;
+  for (const TakenObservation& taken : filter.taken_observations()) {
+    if (taken.withdrawn) withdrawn.insert({taken.frame_id, taken.observation.feature_id});
+  }
+  return withdrawn;
+}
+
 // Every frame of the scene's first `num_poses`, noise-free but for frame 2's observation of
 // `wrong`, 25 px off in u, at the true poses; the observations in `left_out` are not taken.
 void AddWithOneWrong(const Scene& scene, int num_poses, int64_t wrong,
@@ -642,10 +658,7 @@ TEST_P(InformationFilterTest, WithdrawingObservationsUndoesThemExactly) {
     const WithdrawalStatistics stats = with.WithdrawInconsistent();
     EXPECT_EQ(stats.put_back, 0);
     EXPECT_EQ(stats.tested, static_cast<int>(with.taken_observations().size()));
-    std::set<std::pair<int, int64_t>> withdrawn;
-    for (const TakenObservation& taken : with.taken_observations()) {
-      if (taken.withdrawn) withdrawn.insert({taken.frame_id, taken.observation.feature_id});
-    }
+    const std::set<std::pair<int, int64_t>> withdrawn = Withdrawn(with);
     EXPECT_EQ(static_cast<int>(withdrawn.size()), stats.withdrawn);
     EXPECT_EQ(withdrawn.count({scene.frame_ids[2], wrong}), 1u);
     EXPECT_LE(withdrawn.size(), 4u) << "of " << stats.tested;
@@ -653,10 +666,7 @@ TEST_P(InformationFilterTest, WithdrawingObservationsUndoesThemExactly) {
     without.set_defer_recovery(true);
     AddWithOneWrong(scene, num_poses, wrong, withdrawn, &rng, &without);
     without.Recover();
-    ASSERT_EQ(with.state_dim(), without.state_dim());
-    EXPECT_LT((with.state() - without.state()).norm(), 1e-9);
-    EXPECT_NEAR(with.LogDetInformation(), without.LogDetInformation(),
-                1e-9 * std::abs(without.LogDetInformation()));
+    ExpectSameEstimate(with, without);
     EXPECT_LT(with.LogDetInformation(), log_det_before);
     const int last = scene.frame_ids.back();
     EXPECT_LT(RelativeDifference(with.PoseCovariance(last), without.PoseCovariance(last)), 1e-9);
@@ -712,6 +722,130 @@ TEST_P(InformationFilterTest, WithdrawsAWrongFirstSightingAndKeepsTheRightOnes) 
   ungated.AddFirstPose(scene.frame_ids[0], scene.poses[0], first);
   ungated.AddPose(scene.frame_ids[1], scene.poses[1], Observe(scene, 1, true, &rng));
   EXPECT_EQ(ungated.WithdrawInconsistent().tested, 0);
+}
+
+// Frames 0 .. num_poses - 1 of `scene`, noise-free but for frame 0's observation of `wrong`,
+// 0.3 m off in range, at the true poses; the observations in `weightless` are taken with
+// their Q times 1e14, which weighs them out and keeps every linearisation point.
+void AddWithWrongRange(const Scene& scene, int num_poses, int64_t wrong,
+                       const std::set<std::pair<int, int64_t>>& weightless, std::mt19937* rng,
+                       InformationFilter* filter) {
+  for (int i = 0; i < num_poses; ++i) {
+    std::vector<FeatureObservation> observations = Observe(scene, i, false, rng);
+    for (FeatureObservation& obs : observations) {
+      if (i == 0 && obs.feature_id == wrong) obs.z.z() += 0.3;
+      if (weightless.count({scene.frame_ids[i], obs.feature_id}) > 0) obs.Q *= 1e14;
+    }
+    if (i == 0) {
+      filter->AddFirstPose(scene.frame_ids[i], scene.poses[i], observations);
+    } else {
+      filter->AddPose(scene.frame_ids[i], scene.poses[i], observations);
+    }
+  }
+}
+
+// Delayed initialisation: a feature enters at its second sighting with the first, which
+// couples the earlier pose with it in the feature's own columns. Withdrawing that first
+// sighting (the anchor's) and what it pulled past the gate leaves the filter that took them
+// at no weight.
+TEST_P(InformationFilterTest, WithdrawingAnEarlierSightingUndoesItExactly) {
+  std::mt19937 rng(33);
+  const int num_poses = 6;
+  const Scene scene = MakeScene(num_poses, 60, &rng);
+  const int64_t wrong = FeatureSeenByAll(scene, num_poses, &rng);
+  InformationFilterOptions options = DefaultOptions();
+  options.min_sightings = 2;
+  InformationFilter with(options, scene.camera), weightless(options, scene.camera);
+  with.set_defer_recovery(true);
+  AddWithWrongRange(scene, num_poses, wrong, {}, &rng, &with);
+  with.Recover();
+  const WithdrawalStatistics stats = with.WithdrawInconsistent();
+  const std::set<std::pair<int, int64_t>> withdrawn = Withdrawn(with);
+  EXPECT_EQ(static_cast<int>(withdrawn.size()), stats.withdrawn);
+  EXPECT_EQ(withdrawn.count({scene.frame_ids[0], wrong}), 1u);
+  EXPECT_LE(withdrawn.size(), 3u);
+  weightless.set_defer_recovery(true);
+  AddWithWrongRange(scene, num_poses, wrong, withdrawn, &rng, &weightless);
+  weightless.Recover();
+  ExpectSameEstimate(with, weightless);
+}
+
+// A frame whose every observation of the map is wrong, each 40 px another way, and which
+// alone sees some features of its own: withdrawing stops where the pose would lose its ties
+// to the map (min_known_features of them stay), and the pose stays determined.
+TEST_P(InformationFilterTest, WithdrawingLeavesEveryPoseTiedToTheMap) {
+  std::mt19937 rng(34);
+  const int num_poses = 6;
+  const Scene scene = MakeScene(num_poses, 60, &rng);
+  InformationFilter filter(DefaultOptions(), scene.camera);
+  for (int i = 0; i < num_poses; ++i) {
+    std::vector<FeatureObservation> observations = Observe(scene, i, false, &rng);
+    if (i == 3) {
+      const int count = static_cast<int>(observations.size());
+      for (int j = 0; j < count; ++j) {
+        FeatureObservation own = observations[j];
+        own.feature_id += 1000000;
+        if (j % 3 == 0) observations.push_back(own);
+        observations[j].z.x() += j % 2 == 0 ? 40.0 : -40.0;
+        observations[j].z.y() += j % 4 < 2 ? 40.0 : -40.0;
+      }
+      filter.AddPose(scene.frame_ids[i], scene.poses[i], observations);
+    } else if (i == 0) {
+      filter.AddFirstPose(scene.frame_ids[i], scene.poses[i], observations);
+    } else {
+      filter.AddPose(scene.frame_ids[i], scene.poses[i], observations);
+    }
+  }
+  const WithdrawalStatistics stats = filter.WithdrawInconsistent();
+  EXPECT_EQ(stats.put_back, 0);
+  EXPECT_GT(stats.withdrawn, 0);
+  EXPECT_GT(stats.still_failing, 0);  // the ties kept
+  std::map<int64_t, int> kept_by_feature;
+  for (const TakenObservation& taken : filter.taken_observations()) {
+    if (!taken.withdrawn) ++kept_by_feature[taken.observation.feature_id];
+  }
+  int ties = 0;
+  for (const TakenObservation& taken : filter.taken_observations()) {
+    if (taken.frame_id == scene.frame_ids[3] && !taken.withdrawn &&
+        kept_by_feature[taken.observation.feature_id] > 1) {
+      ++ties;
+    }
+  }
+  EXPECT_EQ(ties, DefaultOptions().min_known_features);
+  const Matrix6d covariance = filter.PoseCovariance(scene.frame_ids[3]);
+  EXPECT_TRUE(covariance.allFinite());
+  EXPECT_LT(covariance.diagonal().maxCoeff(), 1.0);
+}
+
+// A filter restored from a snapshot holds no linearisation points of what it restored; what
+// it takes after can be withdrawn, and the restored poses and features count as tied.
+TEST_P(InformationFilterTest, ARestoredFilterWithdrawsWhatItTookAfter) {
+  std::mt19937 rng(35);
+  const int num_poses = 7;
+  const Scene scene = MakeScene(num_poses, 60, &rng);
+  const int64_t wrong = FeatureSeenByAll(scene, num_poses, &rng);
+  InformationFilter before(DefaultOptions(), scene.camera);
+  before.AddFirstPose(scene.frame_ids[0], scene.poses[0], Observe(scene, 0, true, &rng));
+  for (int i = 1; i < 4; ++i) {
+    before.AddPose(scene.frame_ids[i], scene.poses[i], Observe(scene, i, true, &rng));
+  }
+  InformationFilter restored(DefaultOptions(), scene.camera);
+  restored.Restore(before.Snapshot());
+  EXPECT_TRUE(restored.taken_observations().empty());
+  for (int i = 4; i < num_poses; ++i) {
+    std::vector<FeatureObservation> observations = Observe(scene, i, true, &rng);
+    for (FeatureObservation& obs : observations) {
+      if (i == 5 && obs.feature_id == wrong) obs.z.y() += 20.0;
+    }
+    restored.AddPose(scene.frame_ids[i], scene.poses[i], observations);
+  }
+  const WithdrawalStatistics stats = restored.WithdrawInconsistent();
+  EXPECT_EQ(stats.put_back, 0);
+  EXPECT_EQ(Withdrawn(restored).count({scene.frame_ids[5], wrong}), 1u);
+  EXPECT_LE(stats.withdrawn, 2) << "of " << stats.tested;
+  for (const TakenObservation& taken : restored.taken_observations()) {
+    EXPECT_GE(taken.frame_id, scene.frame_ids[4]);
+  }
 }
 
 }  // namespace

@@ -66,5 +66,16 @@ TEST(UpperColumnStorageTest, TruncateDropsTheLastColumns) {
   EXPECT_EQ(Eigen::MatrixXd(matrix.Full())(3, 3), 9.0);
 }
 
+TEST(UpperColumnStorageTest, AddToEntryChangesOneStoredEntry) {
+  Eigen::MatrixXd dense;
+  UpperColumnStorage matrix = MakeMatrix(&dense);
+  matrix.AddToEntry(2, 3, -0.5);  // a coupling, in the later column
+  matrix.AddToEntry(4, 4, 1.0);   // a diagonal entry
+  dense(2, 3) = dense(3, 2) = 0.5;
+  dense(4, 4) = 9.0;
+  EXPECT_EQ(Eigen::MatrixXd(matrix.Full()), dense);
+  EXPECT_EQ(matrix.nonzeros(), 12);
+}
+
 }  // namespace
 }  // namespace ieslam
