@@ -17,12 +17,16 @@ double Mahalanobis(const Vector6d& d, const Matrix6d& P) {
   return std::sqrt(d.dot(llt.solve(d)));
 }
 
+// Of no values (e.g. Mahalanobis distances without the filter's covariances) the figures are
+// null: a 0 would read as agreement.
 Json StatsToJson(const ErrorStats& stats) {
+  const double none = std::numeric_limits<double>::quiet_NaN();
+  const bool any = stats.count > 0;
   return Json::Object()
       .Set("count", stats.count)
-      .Set("rmse", stats.rmse)
-      .Set("mean", stats.mean)
-      .Set("max", stats.max);
+      .Set("rmse", any ? stats.rmse : none)
+      .Set("mean", any ? stats.mean : none)
+      .Set("max", any ? stats.max : none);
 }
 
 }  // namespace

@@ -70,6 +70,21 @@ TEST(FilterSmootherComparisonTest, KnownOffsetsGiveKnownDistances) {
   EXPECT_EQ(ComparisonToJson(c, false).Dump().find("\"frames\""), std::string::npos);
 }
 
+// Without the filter's covariances there is no Mahalanobis distance: its figures are null,
+// not a 0 that reads as agreement.
+TEST(FilterSmootherComparisonTest, NoCovariancesGiveNullMahalanobisFigures) {
+  SlamEstimate filter = SmallEstimate();
+  filter.pose_covariances.clear();
+  const FilterSmootherComparison c = CompareFilterToSmoother(filter, SmallEstimate());
+  EXPECT_EQ(c.mahalanobis.count, 0u);
+  const std::string json = ComparisonToJson(c, false).Dump();
+  const size_t at = json.find("\"mahalanobis\"");
+  ASSERT_NE(at, std::string::npos) << json;
+  const std::string figures = json.substr(at, json.find('}', at) - at);
+  EXPECT_NE(figures.find("\"rmse\": null"), std::string::npos) << figures;
+  EXPECT_EQ(figures.find("\"rmse\": 0"), std::string::npos) << figures;
+}
+
 // Runs the filter over a scene's frames in order, each pose initialised at `initial`.
 void RunFilter(const TestScene& scene, const std::map<int, std::vector<FeatureObservation>>& obs,
                const std::map<int, Vector6d>& initial, InformationFilter* filter) {
