@@ -510,6 +510,11 @@ SelectionResult KeyframeSelector::Run(
   SelectionResult result = RunFrames(source, filter, timed, stop, on_decision, resume);
   result.seconds_per_frame_by_quarter =
       quarters.Finish(std::max(0, result.frames_processed - first));
+  // After the quarters: it is no frame's cost.
+  if (options_.kind != SelectorKind::kDeadReckoning && !result.interrupted) {
+    result.withdrawal = filter->WithdrawInconsistent();
+    result.seconds_filter += result.withdrawal.seconds;
+  }
   return result;
 }
 
@@ -588,10 +593,6 @@ SelectionResult KeyframeSelector::RunFrames(
       break;
     case SelectorKind::kDeadReckoning:
       break;
-  }
-  if (!result.interrupted) {
-    result.withdrawal = filter->WithdrawInconsistent();
-    result.seconds_filter += result.withdrawal.seconds;
   }
   return result;
 }
