@@ -11,6 +11,7 @@
 
 #include "apps/app_util.h"
 #include "apps/commands.h"
+#include "core/calibration.h"
 #include "core/error.h"
 #include "core/file_util.h"
 #include "selection/pipeline/run_options.h"
@@ -66,14 +67,18 @@ StoredRefinementOptions RefineOptionsFromFlags(const Flags& flags, RunOptions* c
 int RefineCommand(const CommandArgs& args) {
   const Flags flags(args, kRefineFlags);
   if (flags.help()) {
-    std::cout << FormatHelp("refine", "--run DIR --output OUT [flags]",
-                            "Bundle-adjusts the keyframes and features of an earlier run\n"
-                            "(DIR/ba_problem.txt) and writes refined.tum and report.json into OUT\n"
-                            "(refine_refined.tum and refine_report.json when OUT is DIR: the\n"
-                            "run's own refined.tum and report.json stay as its report says).\n"
-                            "With --dataset, the selected frames' range images are aligned\n"
-                            "pairwise in the refinement (as `ieslam run --refine`).",
-                            kRefineFlags);
+    std::cout << FormatHelp(
+        "refine", "--run DIR --output OUT [flags]",
+        "Bundle-adjusts the keyframes and features of an earlier run\n"
+        "(DIR/ba_problem.txt) and writes refined.tum and report.json into OUT\n"
+        "(refine_refined.tum and refine_report.json when OUT is DIR: the\n"
+        "run's own refined.tum and report.json stay as its report says).\n"
+        "With --dataset, the selected frames' range images are aligned\n"
+        "pairwise in the refinement (as `ieslam run --refine`), and with\n"
+        "ba: {estimate_depth_correction: 1} the dataset's calibration with the\n"
+        "estimated depth correction is written as corrected_calib.yaml\n"
+        "(refine_corrected_calib.yaml when OUT is DIR).",
+        kRefineFlags);
     return 0;
   }
   RunOptions config;
@@ -81,7 +86,10 @@ int RefineCommand(const CommandArgs& args) {
   const std::string run = flags.Require("run");
   const std::string out = flags.Require("output");
   std::unique_ptr<Dataset> dataset;
-  if (flags.Has("dataset") && options.depth_alignment.rounds > 0) {
+  // The dataset is read for its clouds, and for its calibration, which a depth correction's
+  // estimate needs (the range imager's place) and corrects.
+  if (flags.Has("dataset") &&
+      (options.depth_alignment.rounds > 0 || options.ba.estimate_depth_correction)) {
     DatasetOptions dataset_options = config.dataset_options;
     dataset_options.format = flags.GetString("format", dataset_options.format);
     dataset_options.calib_file = flags.GetString("calib", dataset_options.calib_file);
@@ -95,14 +103,32 @@ int RefineCommand(const CommandArgs& args) {
   const bool into_run = std::filesystem::equivalent(run, out, ec);
   const std::string report_name = into_run ? "refine_report.json" : "report.json";
   const std::string refined_name = into_run ? "refine_refined.tum" : "refined.tum";
+  const std::string calibration_name =
+      into_run ? "refine_corrected_calib.yaml" : "corrected_calib.yaml";
   const StoredRefinement refined = RefineStoredRun(run, dataset.get(), options);
   for (const std::string& warning : refined.warnings) PrintWarning("refine", warning);
   // The report is the set's commit point: gone while the trajectory is replaced, written last.
-  RemoveStaleTempFiles(out, {refined_name, report_name});
-  std::filesystem::remove(JoinPath(out, report_name), ec);
-  if (ec) throw OutputError("cannot remove " + JoinPath(out, report_name) + ": " + ec.message());
+  RemoveStaleTempFiles(out, {refined_name, report_name, calibration_name});
+  // An earlier refinement's calibration goes with its report; without one, a file of that
+  // name is the user's. The calibration the dataset was read with is neither removed nor
+  // replaced.
+  const bool earlier = std::filesystem::exists(JoinPath(out, report_name), ec);
+  const bool calibration_in_use =
+      dataset != nullptr &&
+      std::filesystem::equivalent(JoinPath(out, calibration_name), dataset->calibration_path(), ec);
+  for (const std::string& name : {report_name, calibration_name}) {
+    if (name == calibration_name && (!earlier || calibration_in_use)) continue;
+    std::filesystem::remove(JoinPath(out, name), ec);
+    if (ec) throw OutputError("cannot remove " + JoinPath(out, name) + ": " + ec.message());
+  }
   WriteTumTrajectory(JoinPath(out, refined_name), refined.refined,
                      "ieslam bundle-adjusted keyframes");
+  if (refined.corrected_calibration && calibration_in_use) {
+    PrintWarning("refine", JoinPath(out, calibration_name) +
+                               " is the calibration the dataset was read with: not replaced");
+  } else if (refined.corrected_calibration) {
+    WriteCalibration(JoinPath(out, calibration_name), *refined.corrected_calibration);
+  }
   const Json report = StoredRefinementReport(run, flags.GetString("dataset", ""), options, refined);
   WriteTextAtomically(JoinPath(out, report_name), report.Dump() + "\n");
   const BundleAdjustmentProblem& problem = refined.stored.problem;

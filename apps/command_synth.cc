@@ -1,5 +1,7 @@
 // `ieslam synth`: a synthetic RGB-D dataset with exact ground truth.
+#include <algorithm>
 #include <iostream>
+#include <vector>
 
 #include "apps/app_util.h"
 #include "apps/commands.h"
@@ -20,6 +22,9 @@ int SynthCommand(const CommandArgs& args) {
       {"readout", "SECONDS",
        "rgbd: a rolling shutter reading its rows in this time, first to last (default 0: a "
        "global shutter); calib.yaml carries it"},
+      {"depth-correction", "A,B,C",
+       "the range imager reads each depth times 1 + A x + B y + C (x^2 + y^2) at its pixel's "
+       "normalised coordinates (a depth tilt and bowl, default 0,0,0); calib.yaml carries it"},
       {"threads", "N", "rendering threads, 0 = all cores; never changes the output (default 0)"}};
   const Flags flags(args, specs);
   if (flags.help()) {
@@ -38,6 +43,9 @@ int SynthCommand(const CommandArgs& args) {
   options.noise_seed = static_cast<uint32_t>(seed) + 1;
   options.threads = flags.GetInt("threads", 0, 0, 256);
   options.readout_s = flags.GetDouble("readout", 0.0, -0.2, 0.2);
+  const std::vector<double> correction =
+      flags.GetDoubleList("depth-correction", {0.0, 0.0, 0.0}, 3, -0.5, 0.5);
+  std::copy(correction.begin(), correction.end(), options.depth_correction.begin());
   std::string why;
   if (!options.Check(&why)) throw ConfigError(why);
   PrepareOutputDirectory(output);

@@ -95,18 +95,34 @@ double Flags::GetDouble(const std::string& name, double fallback, double min, do
   return value;
 }
 
+std::vector<Flags> Flags::Items(const std::string& name) const {
+  std::vector<Flags> items;
+  std::stringstream list(values_.at(name));
+  std::string item;
+  while (std::getline(list, item, ','))
+    items.emplace_back(Flags({"--" + name, item}, {{name, "N", ""}}));
+  if (items.empty()) throw ConfigError("--" + name + " needs at least one value");
+  return items;
+}
+
 std::vector<int> Flags::GetIntList(const std::string& name, const std::vector<int>& fallback,
                                    int min, int max) const {
-  const auto it = values_.find(name);
-  if (it == values_.end()) return fallback;
+  if (!Has(name)) return fallback;
   std::vector<int> list;
-  std::stringstream items(it->second);
-  std::string item;
-  while (std::getline(items, item, ',')) {
-    Flags one({"--" + name, item}, {{name, "N", ""}});
-    list.push_back(one.GetInt(name, 0, min, max));
+  for (const Flags& one : Items(name)) list.push_back(one.GetInt(name, 0, min, max));
+  return list;
+}
+
+std::vector<double> Flags::GetDoubleList(const std::string& name,
+                                         const std::vector<double>& fallback, size_t size,
+                                         double min, double max) const {
+  if (!Has(name)) return fallback;
+  std::vector<double> list;
+  for (const Flags& one : Items(name)) list.push_back(one.GetDouble(name, 0.0, min, max));
+  if (list.size() != size) {
+    throw ConfigError("--" + name + " needs " + std::to_string(size) +
+                      " comma-separated values, got " + std::to_string(list.size()));
   }
-  if (list.empty()) throw ConfigError("--" + name + " needs at least one value");
   return list;
 }
 

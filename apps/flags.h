@@ -31,8 +31,15 @@ class Flags {
   // Comma-separated integers, e.g. --buffers 2,3,4,5.
   std::vector<int> GetIntList(const std::string& name, const std::vector<int>& fallback, int min,
                               int max) const;
+  // Exactly `size` comma-separated finite numbers in [min, max], e.g. --depth-correction
+  // -0.02,0.003,0.004.
+  std::vector<double> GetDoubleList(const std::string& name, const std::vector<double>& fallback,
+                                    size_t size, double min, double max) const;
 
  private:
+  // The comma-separated items of flag `name` (given), each as a flag of its own.
+  std::vector<Flags> Items(const std::string& name) const;
+
   std::map<std::string, std::string> values_;
   bool help_ = false;
 };

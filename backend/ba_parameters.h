@@ -1,4 +1,5 @@
-// The bundle adjustment's parameter blocks (backend/bundle_adjustment.cc's own layout).
+// The bundle adjustment's parameter blocks and solver settings, shared by its solves
+// (backend/bundle_adjustment.cc) and the depth correction's (backend/depth_correction.cc).
 #pragma once
 
 #include <cstddef>
@@ -6,6 +7,7 @@
 #include <map>
 #include <vector>
 
+#include <ceres/solver.h>
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
@@ -67,6 +69,27 @@ class Parameters {
   std::map<int, size_t> pose_offset_;
   std::map<int64_t, size_t> feature_offset_;
 };
+
+// Levenberg-Marquardt as BundleAdjustmentOptions say: iterations, tolerances, first trust
+// region, threads; CHOLMOD for sparse factors; silent.
+inline void SetLevenbergMarquardt(const BundleAdjustmentOptions& options,
+                                  ceres::Solver::Options* solver) {
+  solver->minimizer_type = ceres::TRUST_REGION;
+  solver->trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
+  solver->sparse_linear_algebra_library_type = ceres::SUITE_SPARSE;
+  solver->max_num_iterations = options.max_iterations;
+  solver->function_tolerance = options.function_tolerance;
+  solver->gradient_tolerance = options.gradient_tolerance;
+  solver->parameter_tolerance = options.parameter_tolerance;
+  solver->initial_trust_region_radius = options.initial_trust_region_radius;
+  // A step the linear solver cannot take (a near-singular system) shrinks the region as a
+  // failed one does; from the Gauss-Newton start the tenth such step is at a radius below
+  // Ceres' default, where its default of five would end the solve before getting there.
+  solver->max_num_consecutive_invalid_steps = 10;
+  solver->num_threads = options.num_threads;
+  solver->logging_type = ceres::SILENT;
+  solver->minimizer_progress_to_stdout = false;
+}
 
 }  // namespace ba_internal
 }  // namespace ieslam

@@ -386,21 +386,7 @@ void BundleAdjustmentRun::AddRelativePoses() {
 }
 
 void BundleAdjustmentRun::SetSolverOptions() {
-  solver_options_.minimizer_type = ceres::TRUST_REGION;
-  solver_options_.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
-  solver_options_.sparse_linear_algebra_library_type = ceres::SUITE_SPARSE;
-  solver_options_.max_num_iterations = options_.max_iterations;
-  solver_options_.function_tolerance = options_.function_tolerance;
-  solver_options_.gradient_tolerance = options_.gradient_tolerance;
-  solver_options_.parameter_tolerance = options_.parameter_tolerance;
-  solver_options_.initial_trust_region_radius = options_.initial_trust_region_radius;
-  // A step the linear solver cannot take (a near-singular system) shrinks the region as a
-  // failed one does; from the Gauss-Newton start the tenth such step is at a radius below
-  // Ceres' default, where its default of five would end the solve before getting there.
-  solver_options_.max_num_consecutive_invalid_steps = 10;
-  solver_options_.num_threads = options_.num_threads;
-  solver_options_.logging_type = ceres::SILENT;
-  solver_options_.minimizer_progress_to_stdout = false;
+  ba_internal::SetLevenbergMarquardt(options_, &solver_options_);
   if (options_.stop) solver_options_.callbacks.push_back(&stop_callback_);
   if (options_.cost_tolerance > 0.0) {
     solver_options_.callbacks.push_back(&cost_tolerance_callback_);

@@ -111,6 +111,11 @@ struct BundleAdjustmentOptions {
   // the wrong ones; the batch judges them all at its own optimum. The bundle adjustment the
   // filter is checked against keeps the filter's information.
   bool refine_registered = true;
+  // Read by the batch refinement, not by the solver: after the bundle adjustment the filter is
+  // checked against, the range imager's depth correction is estimated from that adjustment's
+  // observations (backend/depth_correction.h) and reported, with a calibration that applies it
+  // for the next run. The refinement's own solves keep the depth as it was read.
+  bool estimate_depth_correction = false;
   // With the Schur solvers the features are eliminated first and the reduced camera system
   // of the poses is factored, densely (Eigen) or sparsely (SuiteSparse/CHOLMOD);
   // sparse_normal_cholesky factors the whole normal equations with CHOLMOD. auto: dense

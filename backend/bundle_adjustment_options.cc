@@ -80,6 +80,8 @@ const OptionTable<BundleAdjustmentOptions>& BundleAdjustmentOptions::Table() {
             "relative poses' information divided by their own variance factor");
     t->Bool("refine_registered", &O::refine_registered,
             "the refinement weighs every registered observation, not the filter's gated set");
+    t->Bool("estimate_depth_correction", &O::estimate_depth_correction,
+            "the refinement estimates the range imager's depth_correction (corrected_calib.yaml)");
     t->Int("max_iterations", &O::max_iterations, "Levenberg-Marquardt iterations per solve").Min(1);
     t->Double("cost_tolerance", &O::cost_tolerance,
               "a step's gain or its model's miss below this ends a solve (1/2 chi-square; 0: off)")

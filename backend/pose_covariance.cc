@@ -54,11 +54,30 @@ std::vector<Eigen::Matrix3d> FeatureBlocks(const Eigen::SparseMatrix<double>& H,
 bool SchurTangentCovariances(ceres::Problem* problem, const std::vector<PoseParameterBlocks>& poses,
                              const std::vector<double*>& features, int num_threads,
                              std::map<int, Matrix6d>* tangent) {
-  ceres::Problem::EvaluateOptions evaluate;
+  std::vector<double*> leading;
   for (const PoseParameterBlocks& pose : poses) {
-    evaluate.parameter_blocks.push_back(pose.t_w_c);
-    evaluate.parameter_blocks.push_back(pose.q_w_c);
+    leading.push_back(pose.t_w_c);
+    leading.push_back(pose.q_w_c);
   }
+  Eigen::MatrixXd S;
+  if (!LeadingSchurComplement(problem, leading, features, num_threads, &S)) return false;
+  const int np = static_cast<int>(S.rows());
+  const Eigen::LLT<Eigen::MatrixXd> llt(S);
+  if (llt.info() != Eigen::Success) return false;
+  const Eigen::MatrixXd covariance = llt.solve(Eigen::MatrixXd::Identity(np, np));
+  for (size_t k = 0; k < poses.size(); ++k) {
+    (*tangent)[poses[k].frame_id] = covariance.block<6, 6>(6 * k, 6 * k);
+  }
+  return true;
+}
+
+}  // namespace
+
+bool LeadingSchurComplement(ceres::Problem* problem, const std::vector<double*>& leading,
+                            const std::vector<double*>& features, int num_threads,
+                            Eigen::MatrixXd* S) {
+  ceres::Problem::EvaluateOptions evaluate;
+  evaluate.parameter_blocks = leading;
   evaluate.parameter_blocks.insert(evaluate.parameter_blocks.end(), features.begin(),
                                    features.end());
   evaluate.num_threads = num_threads;
@@ -67,7 +86,8 @@ bool SchurTangentCovariances(ceres::Problem* problem, const std::vector<PosePara
   const Eigen::Map<const Eigen::SparseMatrix<double, Eigen::RowMajor, int>> J(
       crs.num_rows, crs.num_cols, static_cast<int>(crs.values.size()), crs.rows.data(),
       crs.cols.data(), crs.values.data());
-  const int np = 6 * static_cast<int>(poses.size());
+  int np = 0;
+  for (double* block : leading) np += problem->ParameterBlockTangentSize(block);
   const int nf = crs.num_cols - np;
   const Eigen::SparseMatrix<double> H = Eigen::SparseMatrix<double>(J.transpose()) * J;
   std::vector<Eigen::Triplet<double>> inverse_blocks;
@@ -84,19 +104,10 @@ bool SchurTangentCovariances(ceres::Problem* problem, const std::vector<PosePara
   Eigen::SparseMatrix<double> H_ff_inverse(nf, nf);
   H_ff_inverse.setFromTriplets(inverse_blocks.begin(), inverse_blocks.end());
   const Eigen::SparseMatrix<double> H_pf = H.topRightCorner(np, nf);
-  const Eigen::MatrixXd S =
-      Eigen::MatrixXd(H.topLeftCorner(np, np)) -
-      Eigen::MatrixXd(Eigen::SparseMatrix<double>(H_pf * H_ff_inverse) * H_pf.transpose());
-  const Eigen::LLT<Eigen::MatrixXd> llt(S);
-  if (llt.info() != Eigen::Success) return false;
-  const Eigen::MatrixXd covariance = llt.solve(Eigen::MatrixXd::Identity(np, np));
-  for (size_t k = 0; k < poses.size(); ++k) {
-    (*tangent)[poses[k].frame_id] = covariance.block<6, 6>(6 * k, 6 * k);
-  }
+  *S = Eigen::MatrixXd(H.topLeftCorner(np, np)) -
+       Eigen::MatrixXd(Eigen::SparseMatrix<double>(H_pf * H_ff_inverse) * H_pf.transpose());
   return true;
 }
-
-}  // namespace
 
 bool PoseTangentCovariances(ceres::Problem* problem, const std::vector<PoseParameterBlocks>& poses,
                             const std::vector<double*>& features, BaCovariance method,

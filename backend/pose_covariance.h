@@ -7,6 +7,7 @@
 #include <vector>
 
 #include <ceres/problem.h>
+#include <Eigen/Core>
 
 #include "core/pose.h"
 
@@ -30,6 +31,15 @@ struct PoseParameterBlocks {
 // problem (the anchor) is held fixed; `features` lists the feature blocks that carry
 // residuals (kSchur needs them; kSparseQr finds them itself). False when the information
 // matrix is singular: a pose or feature the residuals do not determine.
+// The Schur complement S = H_ll - H_lf H_ff^-1 H_fl of H = J^T J, J the problem's Jacobian at
+// its current values over the tangent spaces of `leading` (in that order) and then
+// `features` (3-vectors, each touching no other feature: H_ff is block diagonal), every other
+// block held fixed. S^-1 is the leading blocks' marginal covariance. False when the Jacobian
+// cannot be evaluated or a feature's block is singular.
+bool LeadingSchurComplement(ceres::Problem* problem, const std::vector<double*>& leading,
+                            const std::vector<double*>& features, int num_threads,
+                            Eigen::MatrixXd* S);
+
 bool PoseTangentCovariances(ceres::Problem* problem, const std::vector<PoseParameterBlocks>& poses,
                             const std::vector<double*>& features, BaCovariance method,
                             int num_threads, std::map<int, Matrix6d>* tangent);

@@ -174,8 +174,8 @@ bool SameIntrinsics(const PinholeCamera& a, const PinholeCamera& b) {
 }
 
 RangeImager ReadRange(const Section& s, const PinholeCamera& colour, bool registered) {
-  std::set<std::string> allowed = {"depth_scale", "depth_kind",  "invalid_values",
-                                   "min_range_m", "max_range_m", "noise"};
+  std::set<std::string> allowed = {"depth_scale", "depth_kind", "invalid_values",  "min_range_m",
+                                   "max_range_m", "noise",      "depth_correction"};
   allowed.insert(std::begin(kIntrinsicKeys), std::end(kIntrinsicKeys));
   s.OnlyKeys(allowed);
   RangeImager range;
@@ -222,6 +222,18 @@ RangeImager ReadRange(const Section& s, const PinholeCamera& colour, bool regist
   noise.InRange("b", range.noise.b, 0.0, 1.0);
   range.noise.c = noise.Number("c");
   noise.InRange("c", range.noise.c, 0.0, 1.0);
+  if (s.Has("depth_correction")) {
+    const std::vector<double> k = s.Numbers("depth_correction", 3);
+    for (int i = 0; i < 3; ++i) {
+      // Half a reading's value per unit of normalised coordinate is no calibration any more.
+      if (!(std::fabs(k[i]) <= 0.5)) {
+        s.Fail("depth_correction", "coefficient " + std::to_string(i + 1) +
+                                       " (a, b, c) must be within +-0.5, got " +
+                                       std::to_string(k[i]));
+      }
+      range.depth_correction[i] = k[i];
+    }
+  }
   // No range imager measures to better than 10 micrometres, and a smaller sigma would make
   // weights (1/sigma^2) that swamp every other term of the estimator.
   if (range.min_range_m >= 0.0 && range.noise.Sigma(range.min_range_m) < 1e-5) {
@@ -349,6 +361,11 @@ std::string FormatCalibration(const Rig& rig) {
   fs << "noise"
      << "{:"
      << "a" << r.noise.a << "b" << r.noise.b << "c" << r.noise.c << "}";
+  // Written only when there is one, so that an uncorrected rig's text stays as it was.
+  if (r.HasDepthCorrection()) {
+    fs << "depth_correction"
+       << "[:" << r.depth_correction[0] << r.depth_correction[1] << r.depth_correction[2] << "]";
+  }
   fs << "}";
   fs << "T_colour_range"
      << "[:";

@@ -77,6 +77,31 @@ bool RangeImager::Check(std::string* why) const {
       noise.a < 0.0 || noise.b < 0.0 || noise.c < 0.0 || noise.Sigma(max_range_m) <= 0.0) {
     return Fail(why, "range imager: noise coefficients must be finite, non-negative and not all 0");
   }
+  if (HasDepthCorrection()) {
+    for (const double k : depth_correction) {
+      // Half a reading per unit of normalised coordinate is no calibration any more.
+      if (!(std::fabs(k) <= 0.5)) {
+        return Fail(why, "range imager: depth_correction coefficients must be within +-0.5, got " +
+                             std::to_string(k));
+      }
+    }
+    // The factor on a grid over the image (a quadratic's extremes lie on its border or at
+    // one interior point, which a 17 x 17 grid comes close to): a correction that halves or
+    // doubles a reading is no calibration.
+    for (int i = 0; i <= 16; ++i) {
+      for (int j = 0; j <= 16; ++j) {
+        const Eigen::Vector2d pixel(i * (camera.width - 1) / 16.0, j * (camera.height - 1) / 16.0);
+        const Eigen::Vector3d ray = camera.Unproject(pixel);
+        const double factor = DepthCorrectionFactor(ray.x(), ray.y());
+        if (!(factor >= 0.5 && factor <= 2.0)) {
+          std::ostringstream message;
+          message << "range imager: depth_correction gives a factor of " << factor << " at pixel ("
+                  << pixel.x() << ", " << pixel.y() << "); it must stay within [0.5, 2]";
+          return Fail(why, message.str());
+        }
+      }
+    }
+  }
   return true;
 }
 

@@ -81,8 +81,22 @@ struct RangeImager {
   double min_range_m = 0.1;
   double max_range_m = 10.0;  // the non-ambiguity range for time-of-flight
   RangeNoiseModel noise;
+  // A systematic range error that varies over the image (a structured-light sensor's depth
+  // "tilt" from its projector's and camera's calibration, and a bowl): the imager reads a
+  // pixel's true value times DepthCorrectionFactor(x, y) = 1 + a x + b y + c (x^2 + y^2),
+  // (x, y) the pixel's undistorted normalised coordinates. Datasets divide it out as they load
+  // a range image (RangeImageToMetres). All 0: none. The refinement estimates it
+  // (backend/depth_correction.h).
+  std::array<double, 3> depth_correction{};  // a, b, c
 
   bool Check(std::string* why) const;
+  bool HasDepthCorrection() const {
+    return depth_correction[0] != 0.0 || depth_correction[1] != 0.0 || depth_correction[2] != 0.0;
+  }
+  double DepthCorrectionFactor(double x, double y) const {
+    const auto& [a, b, c] = depth_correction;
+    return 1.0 + a * x + b * y + c * (x * x + y * y);
+  }
   // Metres for a raw value, or 0 when the value is invalid or outside [min, max] range.
   double RawToMetres(int raw) const;
   // The 3-D point of a range pixel holding `value_m` (as RawToMetres returned), in the

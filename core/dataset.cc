@@ -119,7 +119,8 @@ Frame Dataset::Load(int i) const {
                     "-bit with " + std::to_string(raw.channels()) + " channel(s)");
   }
   RequireSize(raw, rig_.range.camera, info.depth_path, "range image", rig_.name, n);
-  frame.depth = RangeImageToMetres(raw, rig_.range);
+  std::call_once(divisors_once_, [this] { depth_divisors_ = DepthCorrectionDivisors(rig_.range); });
+  frame.depth = RangeImageToMetres(raw, rig_.range, depth_divisors_);
   return frame;
 }
 
@@ -181,13 +182,33 @@ std::unique_ptr<Dataset> OpenDataset(const std::string& directory, const Dataset
   return std::make_unique<PairDataset>(directory, options);
 }
 
-cv::Mat RangeImageToMetres(const cv::Mat& raw, const RangeImager& imager) {
+cv::Mat DepthCorrectionDivisors(const RangeImager& range) {
+  if (!range.HasDepthCorrection()) return {};
+  cv::Mat divisors(range.camera.height, range.camera.width, CV_32FC1);
+  for (int y = 0; y < range.camera.height; ++y) {
+    float* row = divisors.ptr<float>(y);
+    for (int x = 0; x < range.camera.width; ++x) {
+      const Eigen::Vector3d ray = range.camera.Unproject(Eigen::Vector2d(x, y));
+      row[x] = static_cast<float>(range.DepthCorrectionFactor(ray.x(), ray.y()));
+    }
+  }
+  return divisors;
+}
+
+cv::Mat RangeImageToMetres(const cv::Mat& raw, const RangeImager& imager, const cv::Mat& divisors) {
   CHECK_EQ(raw.type(), CV_16UC1);
+  const cv::Mat own = divisors.empty() ? DepthCorrectionDivisors(imager) : cv::Mat();
+  const cv::Mat& factor = divisors.empty() ? own : divisors;
+  CHECK(factor.empty() || (factor.type() == CV_32FC1 && factor.size() == raw.size()));
   cv::Mat metres(raw.rows, raw.cols, CV_32FC1);
   for (int r = 0; r < raw.rows; ++r) {
     const uint16_t* in = raw.ptr<uint16_t>(r);
     float* out = metres.ptr<float>(r);
     for (int c = 0; c < raw.cols; ++c) out[c] = static_cast<float>(imager.RawToMetres(in[c]));
+    if (factor.empty()) continue;
+    // The range limits apply to the reading, as the sensor's own; the correction to what passed.
+    const float* f = factor.ptr<float>(r);
+    for (int c = 0; c < raw.cols; ++c) out[c] /= f[c];
   }
   return metres;
 }

@@ -15,6 +15,7 @@
 #pragma once
 
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <string>
 #include <vector>
@@ -106,6 +107,10 @@ class Dataset {
   std::string calibration_source_;
   std::string calibration_chosen_by_;
   std::vector<std::string> warnings_;
+  // DepthCorrectionDivisors(rig_.range), computed by the first Load (which may run on any
+  // thread).
+  mutable std::once_flag divisors_once_;
+  mutable cv::Mat depth_divisors_;
 };
 
 // Detects the format of `directory` ("tum", "7scenes", "pair"); throws DataError when
@@ -116,8 +121,15 @@ std::string DetectDatasetFormat(const std::string& directory);
 // timestamps, ...) or ConfigError (bad options) with a message naming the file and value.
 std::unique_ptr<Dataset> OpenDataset(const std::string& directory, const DatasetOptions& options);
 
+// Each pixel's RangeImager::DepthCorrectionFactor (CV_32FC1, the imager's grid); empty when
+// the imager has no correction.
+cv::Mat DepthCorrectionDivisors(const RangeImager& range);
+
 // A raw 16-bit range image (CV_16UC1) in metres as Dataset::Load returns it: CV_32FC1,
-// RangeImager::RawToMetres per pixel (0 = no measurement).
-cv::Mat RangeImageToMetres(const cv::Mat& raw, const RangeImager& imager);
+// RangeImager::RawToMetres per pixel (0 = no measurement), divided by the imager's depth
+// correction factor. `divisors` (DepthCorrectionDivisors of `imager`), when given, saves
+// computing them again.
+cv::Mat RangeImageToMetres(const cv::Mat& raw, const RangeImager& imager,
+                           const cv::Mat& divisors = cv::Mat());
 
 }  // namespace ieslam

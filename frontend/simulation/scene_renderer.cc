@@ -10,6 +10,7 @@
 
 #include <glog/logging.h>
 
+#include "core/dataset.h"
 #include "core/error.h"
 
 namespace ieslam {
@@ -195,6 +196,7 @@ cv::Mat SimulateRangeImage(const RenderedView& view, const RangeImager& imager,
   CHECK_EQ(view.z_m.cols, imager.camera.width);
   const double min_cos = std::cos(model.max_incidence_deg * M_PI / 180.0);
   const cv::Mat& value_m = imager.depth_kind == DepthKind::kZ ? view.z_m : view.range_m;
+  const cv::Mat factors = DepthCorrectionDivisors(imager);  // empty without a correction
   std::normal_distribution<double> normal(0.0, 1.0);
   cv::Mat raw(value_m.rows, value_m.cols, CV_16UC1);
   for (int r = 0; r < raw.rows; ++r) {
@@ -202,7 +204,7 @@ cv::Mat SimulateRangeImage(const RenderedView& view, const RangeImager& imager,
       // One draw per pixel whether or not it is valid, so that the noise of a pixel does not
       // depend on the validity of the pixels before it.
       const double e = normal(*rng);
-      const double d = value_m.at<double>(r, c);
+      const double d = value_m.at<double>(r, c) * (factors.empty() ? 1.0 : factors.at<float>(r, c));
       uint16_t out = 0;
       if (view.surface.at<int>(r, c) >= 0 && view.cos_incidence.at<double>(r, c) >= min_cos &&
           d >= imager.min_range_m && d <= imager.max_range_m) {

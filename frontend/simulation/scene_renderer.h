@@ -66,11 +66,12 @@ struct RangeSensorModel {
 };
 
 // The raw range image (CV_16UC1) of `view` as `imager` reports it: z or radial distance per
-// imager.depth_kind, plus noise N(0, imager.noise.Sigma(d)^2) (when enabled), rounded to
-// imager.depth_scale; 0 (no measurement) for grazing pixels, for no hit, and outside
-// [min_range_m, max_range_m] (judged on the noise-free value, as a sensor's hardware gate
-// would be) or past the 16-bit range. Throws ConfigError for a model or an imager failing
-// their Check().
+// imager.depth_kind, times the imager's depth correction factor at the pixel (its systematic
+// error, RangeImager::depth_correction), plus noise N(0, imager.noise.Sigma(d)^2) (when
+// enabled), rounded to imager.depth_scale; 0 (no measurement) for grazing pixels, for no hit,
+// and outside [min_range_m, max_range_m] (judged on the noise-free value, as a sensor's
+// hardware gate would be) or past the 16-bit range. Throws ConfigError for a model or an imager
+// failing their Check().
 cv::Mat SimulateRangeImage(const RenderedView& view, const RangeImager& imager,
                            const RangeSensorModel& model, std::mt19937* rng);
 

@@ -114,6 +114,10 @@ bool SyntheticDatasetOptions::Check(std::string* why) const {
     s << "readout_s must be within +-0.2 s and one frame period, got " << readout_s;
   } else if (readout_s != 0.0 && sensor != SyntheticSensor::kRgbd) {
     s << "readout_s (a rolling shutter) is rendered for the rgbd sensor only";
+  } else if (!std::all_of(depth_correction.begin(), depth_correction.end(),
+                          [](double k) { return std::fabs(k) <= 0.5; })) {
+    s << "depth_correction coefficients must be within +-0.5, got [" << depth_correction[0] << ", "
+      << depth_correction[1] << ", " << depth_correction[2] << "]";
   } else if (!(colour_noise_sigma >= 0.0) || !(colour_noise_sigma <= 50.0)) {
     s << "colour_noise_sigma must be in [0, 50] grey levels, got " << colour_noise_sigma;
   } else if (!RangeSensorModel{max_incidence_deg, add_noise}.Check(&part) ||
@@ -345,6 +349,8 @@ int WriteSyntheticDataset(const std::string& directory, const SyntheticDatasetOp
   const SyntheticScene scene(options.scene);
   Rig rig = SyntheticRig(options.sensor, options.resolution_scale);
   rig.colour_readout_s = options.readout_s;
+  rig.range.depth_correction = options.depth_correction;
+  if (!rig.Check(&why)) throw ConfigError("synthetic dataset options: " + why);
   const std::vector<Eigen::Isometry3d> poses = BuildSyntheticTrajectory(
       options.trajectory, std::max(options.frames, options.frames_per_loop));
   RequireFreeSpace(scene, rig, poses, options.frames);
@@ -379,6 +385,15 @@ std::string ReadoutLine(double readout_s) {
   return s.str();
 }
 
+// Likewise the line of a depth correction.
+std::string DepthCorrectionLine(const std::array<double, 3>& k) {
+  if (k[0] == 0.0 && k[1] == 0.0 && k[2] == 0.0) return "";
+  std::ostringstream s;
+  s.precision(17);
+  s << "\ndepth_correction: [" << k[0] << ", " << k[1] << ", " << k[2] << "]";
+  return s.str();
+}
+
 }  // namespace
 
 std::string FormatSyntheticOptions(const SyntheticDatasetOptions& o) {
@@ -391,7 +406,8 @@ std::string FormatSyntheticOptions(const SyntheticDatasetOptions& o) {
     << "\nadd_noise: " << o.add_noise << "\ncolour_noise_sigma: " << o.colour_noise_sigma
     << "\nmax_incidence_deg: " << o.max_incidence_deg
     << "\nedge_supersampling: " << o.edge_supersampling << "\nnoise_seed: " << o.noise_seed
-    << ReadoutLine(o.readout_s) << "\nscene.seed: " << o.scene.seed << "\nscene.room_size_m: ["
+    << ReadoutLine(o.readout_s) << DepthCorrectionLine(o.depth_correction)
+    << "\nscene.seed: " << o.scene.seed << "\nscene.room_size_m: ["
     << o.scene.room_size_m.transpose() << "]\nscene.box_count: " << o.scene.box_count
     << "\nscene.board_count: " << o.scene.board_count << "\nscene.clear_radii_m: ["
     << o.scene.clear_radii_m.transpose() << "]\ntrajectory.centre_m: [" << t.centre_m.transpose()

@@ -31,6 +31,7 @@
 // depends only on scene.seed, the noise of frame i only on (noise_seed, i).
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <string>
@@ -75,6 +76,10 @@ struct SyntheticDatasetOptions {
   // registered depth image is rendered from the camera's pose at that row's time; 0 renders a
   // global shutter. calib.yaml carries it.
   double readout_s = 0.0;
+  // The range imager's systematic error (RangeImager::depth_correction): each depth is
+  // rendered times its pixel's factor. calib.yaml carries it; a run with a calibration
+  // without it sees a depth tilted as a real Kinect's can be. All 0: none.
+  std::array<double, 3> depth_correction{};
   SyntheticSceneOptions scene;  // scene.seed picks the scene
   SyntheticTrajectoryOptions trajectory;
 

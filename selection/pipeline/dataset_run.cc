@@ -308,6 +308,19 @@ void MapSelectedFrames(const Dataset& dataset, const std::function<bool(int)>& h
 }
 
 // RunOnDataset, or with `continued` (which is `dataset`) ContinueMapping.
+// The refinement's warnings and failure into the run's, and the calibration its depth
+// correction makes.
+void FinishRefinement(const Dataset& dataset, RunResult* run) {
+  const Refinement& refinement = *run->pipeline.refinement;
+  run->warnings.insert(run->warnings.end(), refinement.warnings.begin(), refinement.warnings.end());
+  if (!refinement.ok()) {
+    run->warnings.push_back("no refinement: " + refinement.failure +
+                            "; refined.tum is not written");
+    return;
+  }
+  run->corrected_calibration = CorrectedCalibration(refinement, dataset.rig(), &run->warnings);
+}
+
 RunResult Run(const Dataset& dataset, const RunOptions& options, const PipelineHooks& hooks,
               const ContinuedDataset* continued) {
   std::string why;
@@ -353,8 +366,9 @@ RunResult Run(const Dataset& dataset, const RunOptions& options, const PipelineH
     pipeline_hooks.before_finish = TakingBaseFrames(hooks.before_finish, dataset, &source, &taken);
   }
   run.setup_seconds = SecondsSince(run.started);
-  run.pipeline = RunPipeline(&source, dataset.rig().colour, used.pipeline, pipeline_hooks, clouds,
-                             continued != nullptr ? &resume : nullptr);
+  run.pipeline =
+      RunPipeline(&source, dataset.rig().colour, used.pipeline, pipeline_hooks, clouds,
+                  continued != nullptr ? &resume : nullptr, dataset.rig().T_colour_range);
   run.frontend = source.timings();
   if (source.velocities() != nullptr) {
     run.velocity_counts = source.velocities()->counts();
@@ -378,10 +392,7 @@ RunResult Run(const Dataset& dataset, const RunOptions& options, const PipelineH
   if (!run.pipeline.selection.interrupted && hooks.stop && hooks.stop()) {
     run.stopped_after_selection = true;
   }
-  if (run.pipeline.refinement && !run.pipeline.refinement->ok()) {
-    run.warnings.push_back("no refinement: " + run.pipeline.refinement->failure +
-                           "; refined.tum is not written");
-  }
+  if (run.pipeline.refinement) FinishRefinement(dataset, &run);
   if (dataset.has_ground_truth()) EvaluateAgainstGroundTruth(&run);
   return run;
 }

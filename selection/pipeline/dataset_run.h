@@ -63,6 +63,9 @@ struct RunResult {
   double setup_seconds = 0.0;
   double map_seconds = 0.0;
   double evaluation_seconds = 0.0;
+  // The dataset's calibration with the refinement's estimated depth correction
+  // (CorrectedCalibration), written as corrected_calib.yaml.
+  std::optional<Rig> corrected_calibration;
   std::vector<std::string> warnings;  // things the user should hear about, one line each
   // Continued from a saved map (ContinueMapping): its file, and its keyframes, which are the
   // frames before map_frames.

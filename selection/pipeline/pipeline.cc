@@ -30,7 +30,8 @@ bool PipelineOptions::Check(std::string* why) const {
 
 PipelineResult RunPipeline(FrameSource* source, const PinholeCamera& camera,
                            const PipelineOptions& options, const PipelineHooks& hooks,
-                           const RangeCloudLoader& clouds, const PipelineResume* resume) {
+                           const RangeCloudLoader& clouds, const PipelineResume* resume,
+                           const Eigen::Isometry3d& T_colour_range) {
   std::string why;
   if (!options.Check(&why)) throw ConfigError(why);
   PipelineResult result;
@@ -69,7 +70,7 @@ PipelineResult RunPipeline(FrameSource* source, const PinholeCamera& camera,
   // A stop the selection obeyed ends the selection only; the refinement obeys a later one.
   if (!ba.stop && !result.selection.interrupted) ba.stop = hooks.stop;
   result.refinement = Refine(result.problem, camera, result.estimate, ba, options.depth_alignment,
-                             align ? &loaded : nullptr);
+                             align ? &loaded : nullptr, T_colour_range);
   return result;
 }
 

@@ -96,10 +96,11 @@ struct PipelineResult {
 // `clouds` when set). With `resume`, the filter starts from its snapshot and the selector
 // goes on after the frames it holds (KeyframeSelector::Run). Throws ConfigError for options
 // failing Check(); DataError from the source or a snapshot that does not hold together
-// propagates.
+// propagates. T_colour_range places the range imager for the refinement's depth correction.
 PipelineResult RunPipeline(FrameSource* source, const PinholeCamera& camera,
                            const PipelineOptions& options, const PipelineHooks& hooks = {},
                            const RangeCloudLoader& clouds = nullptr,
-                           const PipelineResume* resume = nullptr);
+                           const PipelineResume* resume = nullptr,
+                           const Eigen::Isometry3d& T_colour_range = Eigen::Isometry3d::Identity());
 
 }  // namespace ieslam

@@ -44,6 +44,32 @@ Json SolverToJson(const BundleAdjustmentResult& r) {
       .Set("covariance_seconds", r.covariance_time_s);
 }
 
+// Coefficients with their sigmas and correlations, and what they gain: chi_square_drop is
+// twice the cost they take off (chi-square with 3 degrees of freedom were there no correction
+// and Q right).
+Json DepthCorrectionToJson(const DepthCorrectionEstimate& e) {
+  Json json = Json::Object().Set("usable", e.usable);
+  if (!e.failure.empty()) json.Set("failure", e.failure);
+  const Eigen::Vector3d sigma = e.covariance.diagonal().cwiseMax(0.0).cwiseSqrt();
+  Json coefficients = Json::Array(), sigmas = Json::Array(), correlation = Json::Array();
+  for (int i = 0; i < 3; ++i) {
+    coefficients.Push(e.coefficients[i]);
+    sigmas.Push(sigma[i]);
+    Json row = Json::Array();
+    for (int j = 0; j < 3; ++j) {
+      row.Push(sigma[i] > 0.0 && sigma[j] > 0.0 ? e.covariance(i, j) / (sigma[i] * sigma[j]) : 0.0);
+    }
+    correlation.Push(row);
+  }
+  return json.Set("coefficients", coefficients)
+      .Set("sigma", sigmas)
+      .Set("correlation", correlation)
+      .Set("observations", e.observations)
+      .Set("chi_square_drop", 2.0 * (e.cost_without - e.cost_with))
+      .Set("iterations", e.iterations)
+      .Set("seconds", e.seconds);
+}
+
 Json DepthAlignmentToJson(const Refinement& refinement) {
   const DepthAlignmentStats& stats = refinement.depth_stats;
   const FilterSmootherComparison& change = refinement.change_from_features;
@@ -142,7 +168,8 @@ void SolveAgainWithCovariances(const BundleAdjustmentProblem& problem, const Pin
 
 Refinement Refine(const BundleAdjustmentProblem& problem, const PinholeCamera& camera,
                   const SlamEstimate& filter_estimate, const BundleAdjustmentOptions& ba,
-                  const DepthAlignmentOptions& depth, const RangeClouds* clouds) {
+                  const DepthAlignmentOptions& depth, const RangeClouds* clouds,
+                  const Eigen::Isometry3d& T_colour_range) {
   Refinement refinement;
   const auto start = std::chrono::steady_clock::now();
   // Only the solve that is the refinement computes covariances: with clouds to align the
@@ -157,6 +184,16 @@ Refinement Refine(const BundleAdjustmentProblem& problem, const PinholeCamera& c
   if (refinement.registered_tried) check_ba.covariances_wanted = no_covariances;
   refinement.smoothed = SolveBundleAdjustment(problem, camera, check_ba);
   refinement.failure = FeaturesFailure(problem, refinement.smoothed);
+  refinement.depth_correction_tried = ba.estimate_depth_correction && refinement.ok();
+  if (refinement.depth_correction_tried) {
+    refinement.depth_correction =
+        EstimateDepthCorrection(problem, refinement.smoothed, camera, T_colour_range, ba);
+    if (refinement.depth_correction.interrupted) {
+      refinement.failure = "the depth correction's estimate was interrupted";
+    } else if (!refinement.depth_correction.usable) {
+      refinement.warnings.push_back("no depth correction: " + refinement.depth_correction.failure);
+    }
+  }
   BundleAdjustmentProblem registered;
   if (refinement.registered_tried && refinement.ok()) {
     registered = WithRegistered(problem);
@@ -217,6 +254,18 @@ Trajectory RefinedTrajectory(const Refinement& refinement,
   return trajectory;
 }
 
+std::optional<Rig> CorrectedCalibration(const Refinement& refinement, const Rig& rig,
+                                        std::vector<std::string>* warnings) {
+  if (!refinement.depth_correction_tried || !refinement.depth_correction.usable) return {};
+  Rig corrected = rig;
+  corrected.range = WithDepthCorrection(rig.range, refinement.depth_correction);
+  std::string why;
+  if (corrected.Check(&why)) return corrected;
+  warnings->push_back("the estimated depth correction makes no calibration (" + why +
+                      "): corrected_calib.yaml is not written");
+  return {};
+}
+
 Json RefinementToJson(const Refinement& refinement) {
   Json json = ComparisonToJson(refinement.comparison, true);
   json.Set("ba", SolverToJson(refinement.smoothed));
@@ -232,6 +281,9 @@ Json RefinementToJson(const Refinement& refinement) {
   }
   if (refinement.depth_alignment_tried)
     json.Set("depth_alignment", DepthAlignmentToJson(refinement));
+  if (refinement.depth_correction_tried) {
+    json.Set("depth_correction", DepthCorrectionToJson(refinement.depth_correction));
+  }
   return json;
 }
 

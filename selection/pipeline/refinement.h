@@ -7,11 +7,13 @@
 #pragma once
 
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "backend/bundle_adjustment.h"
 #include "backend/depth_alignment.h"
+#include "backend/depth_correction.h"
 #include "backend/evaluation/filter_smoother_comparison.h"
 #include "backend/slam_estimate.h"
 #include "core/camera.h"
@@ -58,6 +60,10 @@ struct Refinement {
   int depth_frames_left_out = 0;
   // Where depth_aligned differs from the features' solve it started from (when tried).
   FilterSmootherComparison change_from_features;
+  // With BundleAdjustmentOptions::estimate_depth_correction, once the check's solve is usable:
+  // the range imager's depth correction its observations imply.
+  bool depth_correction_tried = false;
+  DepthCorrectionEstimate depth_correction;
   double seconds = 0.0;  // every solve
   std::vector<std::string> warnings;
   // Why there is no refinement to use: the problem has no observations, the bundle
@@ -78,19 +84,29 @@ struct Refinement {
 // Bundle-adjusts `problem` (started from its poses and features) and compares the result with
 // `filter_estimate`; with ba.refine_registered, bundle-adjusts it again with its registered
 // observations (when it has them); with `clouds` and depth.rounds > 0, goes on with the clouds'
-// pairwise alignments. An interruption (ba.stop) anywhere, like a failure of the check's
+// pairwise alignments; with ba.estimate_depth_correction, estimates the range imager's depth
+// correction from the check's solve (the range imager placed by T_colour_range). An
+// interruption (ba.stop) anywhere, like a failure of the check's
 // bundle adjustment (the one the filter is compared with) or of the depth-aligned refinement's
 // fallback, is `failure`: a half-done refinement is no refinement.
 Refinement Refine(const BundleAdjustmentProblem& problem, const PinholeCamera& camera,
                   const SlamEstimate& filter_estimate, const BundleAdjustmentOptions& ba,
-                  const DepthAlignmentOptions& depth, const RangeClouds* clouds = nullptr);
+                  const DepthAlignmentOptions& depth, const RangeClouds* clouds = nullptr,
+                  const Eigen::Isometry3d& T_colour_range = Eigen::Isometry3d::Identity());
 
 // The refined poses with their frames' timestamps (`timestamps` holds every frame's), in
 // time order.
 Trajectory RefinedTrajectory(const Refinement& refinement, const std::map<int, double>& timestamps);
 
+// `rig` with the refinement's depth correction applied (WithDepthCorrection) when it has a
+// usable one: the calibration a next run reads (corrected_calib.yaml). None otherwise, with a
+// warning when the correction was usable but the corrected rig fails Rig::Check.
+std::optional<Rig> CorrectedCalibration(const Refinement& refinement, const Rig& rig,
+                                        std::vector<std::string>* warnings);
+
 // A report's filter_vs_smoother: the comparison, the solver's summary as "ba" and, when tried,
-// "registered" (the registered solve's counts, summary and comparison) and "depth_alignment".
+// "registered" (the registered solve's counts, summary and comparison), "depth_alignment" and
+// "depth_correction".
 Json RefinementToJson(const Refinement& refinement);
 
 }  // namespace ieslam

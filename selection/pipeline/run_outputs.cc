@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "backend/ba_problem_io.h"
+#include "core/calibration.h"
 #include "core/error.h"
 #include "core/file_util.h"
 #include "core/stopwatch.h"
@@ -77,9 +78,13 @@ void RemoveOutput(const std::string& path) {
 
 const std::vector<std::string>& RunOutputNames() {
   static const std::vector<std::string> names = {
-      "keyframes.tum",  "trajectory.tum",         "selected_frames.txt", "groundtruth.tum",
-      "ba_problem.txt", "information_blocks.txt", "refined.tum",         "map.ply",
-      "report.json",    "refine_report.json",     "refine_refined.tum",  "map/map.bin"};
+      "keyframes.tum",        "trajectory.tum",
+      "selected_frames.txt",  "groundtruth.tum",
+      "ba_problem.txt",       "information_blocks.txt",
+      "refined.tum",          "map.ply",
+      "report.json",          "refine_report.json",
+      "refine_refined.tum",   "map/map.bin",
+      "corrected_calib.yaml", "refine_corrected_calib.yaml"};
   return names;
 }
 
@@ -98,15 +103,25 @@ void WriteRunOutputs(const std::string& out, const Dataset& dataset, const RunOp
                            std::filesystem::exists(marker, ec);
   WriteTextAtomically(marker, "ieslam run outputs\n");
   RemoveOutput(JoinPath(out, "report.json"));
+  // The calibration this run read may sit in OUT under an output's name (a second pass of a
+  // depth correction, `--calib OUT/corrected_calib.yaml`): it is neither removed nor replaced.
+  const auto read_this_run = [&](const std::string& name) {
+    return std::filesystem::equivalent(JoinPath(out, name), dataset.calibration_path(), ec);
+  };
+  const bool calibration_in_the_way =
+      run.corrected_calibration.has_value() && read_this_run("corrected_calib.yaml");
   std::set<std::string> written = {"keyframes.tum", "trajectory.tum", "selected_frames.txt",
                                    "report.json"};
   if (dataset.has_ground_truth()) written.insert("groundtruth.tum");
   if (p.has_estimate) written.insert({"ba_problem.txt", "information_blocks.txt"});
   if (run.refined()) written.insert("refined.tum");
+  if (run.corrected_calibration && !calibration_in_the_way) written.insert("corrected_calib.yaml");
   if (run.map) written.insert("map.ply");
   if (run.saved_map) written.insert(std::string(kMapDirectory) + "/" + kMapFileName);
   for (const std::string& name : RunOutputNames()) {
-    if (earlier_run && !written.count(name)) RemoveOutput(JoinPath(out, name));
+    if (earlier_run && !written.count(name) && !read_this_run(name)) {
+      RemoveOutput(JoinPath(out, name));
+    }
   }
   WriteTumTrajectory(JoinPath(out, "keyframes.tum"), run.keyframes,
                      "ieslam keyframes (filter estimate)");
@@ -128,6 +143,9 @@ void WriteRunOutputs(const std::string& out, const Dataset& dataset, const RunOp
                        RefinedTrajectory(*p.refinement, run.timestamps),
                        "ieslam bundle-adjusted keyframes");
   }
+  if (written.count("corrected_calib.yaml")) {
+    WriteCalibration(JoinPath(out, "corrected_calib.yaml"), *run.corrected_calibration);
+  }
   if (run.map) run.map->WritePly(JoinPath(out, "map.ply"));
   if (run.saved_map) {
     std::error_code ec;
@@ -137,6 +155,11 @@ void WriteRunOutputs(const std::string& out, const Dataset& dataset, const RunOp
   }
   Json report =
       RunReport(dataset, options, run, SecondsSince(run.started), SecondsSince(outputs_start));
+  if (calibration_in_the_way) {
+    report["warnings"].Push(
+        "corrected_calib.yaml is the calibration this run read: not replaced (its correction "
+        "is in filter_vs_smoother.depth_correction)");
+  }
   if (stop && stop()) report.Set("interrupted", true);
   WriteTextAtomically(JoinPath(out, "report.json"), report.Dump() + "\n");
 }

@@ -175,13 +175,19 @@ StoredRefinement RefineStoredRun(const std::string& run_dir, const Dataset* data
     started = WithPoses(stored.problem, GroundTruthPoses(stored, gt), stored.camera);
   }
   // The filter-versus-smoother comparison is always against the run's own estimate.
-  result.refinement = Refine(started, stored.camera, InitialEstimate(stored.problem), options.ba,
-                             options.depth_alignment, &clouds);
+  // Without the dataset the range imager is taken to sit at the colour camera (registered).
+  result.refinement = Refine(
+      started, stored.camera, InitialEstimate(stored.problem), options.ba, options.depth_alignment,
+      &clouds, dataset != nullptr ? dataset->rig().T_colour_range : Eigen::Isometry3d::Identity());
   if (!result.refinement.ok()) {
     throw DataError(JoinPath(run_dir, "ba_problem.txt") +
                     ": no refinement: " + result.refinement.failure);
   }
   for (const std::string& warning : result.refinement.warnings) result.warnings.push_back(warning);
+  if (dataset != nullptr) {
+    result.corrected_calibration =
+        CorrectedCalibration(result.refinement, dataset->rig(), &result.warnings);
+  }
   result.refined = RefinedTrajectory(result.refinement, stored.timestamps);
   if (has_gt) {
     const std::string keyframes = JoinPath(run_dir, "keyframes.tum");

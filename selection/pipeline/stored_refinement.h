@@ -4,6 +4,7 @@
 #pragma once
 
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -37,6 +38,9 @@ struct StoredRefinement {
   // Against the ground truth, as `ieslam evaluate` computes them from the files (< 0: none).
   double ate_keyframes_m = -1.0;
   double ate_refined_m = -1.0;
+  // With the dataset: its calibration with the estimated depth correction
+  // (CorrectedCalibration).
+  std::optional<Rig> corrected_calibration;
   std::vector<std::string> warnings;
 };
 

@@ -52,6 +52,22 @@ TEST(FlagsTest, IntegerLists) {
   EXPECT_THROW(Flags({"--buffers", "2,99"}, kSpecs).GetIntList("buffers", {}, 1, 20), ConfigError);
 }
 
+TEST(FlagsTest, DoubleListsHaveTheirSizeAndRange) {
+  const Flags flags({"--buffers", "-0.02,0.003,4e-3"}, kSpecs);
+  EXPECT_EQ(flags.GetDoubleList("buffers", {}, 3, -0.5, 0.5),
+            std::vector<double>({-0.02, 0.003, 0.004}));
+  EXPECT_EQ(Flags({}, kSpecs).GetDoubleList("buffers", {1.0, 2.0}, 2, 0.0, 3.0),
+            std::vector<double>({1.0, 2.0}));
+  for (const char* bad : {"0.1,0.2", "0.1,0.2,0.3,0.4", "0.1,x,0.3", "0.1,0.9,0.3", "0.1,nan,0"}) {
+    try {
+      Flags({"--buffers", bad}, kSpecs).GetDoubleList("buffers", {}, 3, -0.5, 0.5);
+      ADD_FAILURE() << bad << " accepted";
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find("--buffers"), std::string::npos) << e.what();
+    }
+  }
+}
+
 TEST(FlagsTest, HelpListsEveryFlag) {
   const std::string help = FormatHelp("run", "--dataset DIR", "Runs.", kSpecs);
   for (const FlagSpec& spec : kSpecs) EXPECT_NE(help.find("--" + spec.name), std::string::npos);

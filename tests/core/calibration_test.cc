@@ -165,6 +165,40 @@ TEST_F(CalibrationFileTest, RollingShutterReadoutIsOptionalAndRoundTrips) {
   EXPECT_NE(FormatCalibration(rig), FormatCalibration(SampleRig()));
 }
 
+// A depth correction is optional too: without one the text stays as it was; with one it
+// reads back to the bit. A correction that doubles or halves a reading somewhere in the
+// image, or a coefficient beyond +-0.5, is a ConfigError naming it.
+TEST_F(CalibrationFileTest, DepthCorrectionIsOptionalRoundTripsAndIsChecked) {
+  Rig rig = SampleRig();
+  EXPECT_EQ(FormatCalibration(rig).find("depth_correction"), std::string::npos);
+  EXPECT_FALSE(ParseCalibration(FormatCalibration(rig), "memory").range.HasDepthCorrection());
+  rig.range.depth_correction = {-0.0226, 0.00296, 0.00452};
+  const Rig back = ParseCalibration(FormatCalibration(rig), "memory");
+  EXPECT_EQ(back.range.depth_correction, rig.range.depth_correction);
+  EXPECT_DOUBLE_EQ(back.range.DepthCorrectionFactor(0.5, -0.25),
+                   1.0 - 0.0226 * 0.5 - 0.00296 * 0.25 + 0.00452 * (0.25 + 0.0625));
+
+  const std::string text = FormatCalibration(rig);
+  const size_t at = text.find("depth_correction");
+  ASSERT_NE(at, std::string::npos);
+  const size_t end = text.find(']', at);
+  const auto with = [&](const std::string& list) {
+    return Write("bad.yaml",
+                 text.substr(0, at) + "depth_correction: " + list + text.substr(end + 1));
+  };
+  for (const std::string& list : {"[0.6, 0.0, 0.0]", "[0.0, 0.0]"}) {
+    const std::string message = ConfigErrorOf(with(list));
+    EXPECT_NE(message.find("depth_correction"), std::string::npos) << list << ": " << message;
+  }
+  EXPECT_TRUE(ReadCalibration(with("[0.05, -0.05, 0.1]")).range.HasDepthCorrection());
+  // Within the bounds, but at fr1's wide corners 1 - 0.5 (x + y + x^2 + y^2) is about 0.1.
+  Rig wide = ReadCalibration(DefaultCalibrationPath("tum_fr1"));
+  wide.range.depth_correction = {-0.5, -0.5, -0.5};
+  std::string why;
+  EXPECT_FALSE(wide.Check(&why));
+  EXPECT_NE(why.find("depth_correction"), std::string::npos) << why;
+}
+
 TEST_F(CalibrationFileTest, ReadsAHandWrittenFileWithoutYamlDirective) {
   const Rig rig = ReadCalibration(Write("two.yaml", kTwoCameras));
   EXPECT_EQ(rig.name, "test_rig");

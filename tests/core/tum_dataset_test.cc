@@ -157,6 +157,42 @@ TEST_F(DatasetFilesTest, TumCalibrationChoiceIsReported) {
   EXPECT_EQ(dataset->calibration_chosen_by(), "dataset file");
 }
 
+// A calibration's depth correction is divided out of every range pixel as the frame loads:
+// the reading over the factor at that pixel's undistorted normalised coordinates.
+TEST_F(DatasetFilesTest, TumDepthCorrectionIsDividedOutPerPixel) {
+  Rig rig = ReadCalibration(DefaultCalibrationPath("tum_fr1"));
+  rig.range.depth_correction = {-0.03, 0.02, 0.05};
+  DatasetOptions options;
+  options.calib_file = Path("corrected.yaml");
+  WriteCalibration(options.calib_file, rig);
+  const auto plain = OpenDataset(kTum, DatasetOptions());
+  const auto corrected = OpenDataset(kTum, options);
+  const cv::Mat read = plain->Load(4).depth;
+  const cv::Mat depth = corrected->Load(4).depth;
+  int checked = 0;
+  for (int r = 0; r < read.rows; r += 7) {
+    for (int c = 0; c < read.cols; c += 7) {
+      const float v = read.at<float>(r, c);
+      if (v == 0.0f) {
+        EXPECT_EQ(depth.at<float>(r, c), 0.0f);
+        continue;
+      }
+      const Eigen::Vector3d ray = rig.range.camera.Unproject(Eigen::Vector2d(c, r));
+      ASSERT_NEAR(depth.at<float>(r, c), v / rig.range.DepthCorrectionFactor(ray.x(), ray.y()),
+                  2e-6)
+          << r << "," << c;
+      ++checked;
+    }
+  }
+  EXPECT_GT(checked, 2000);
+  // The left and the right of the image moved apart (a = -0.03): it is not a no-op.
+  const Eigen::Vector3d left = rig.range.camera.Unproject(Eigen::Vector2d(20, 240));
+  EXPECT_GT(rig.range.DepthCorrectionFactor(left.x(), left.y()), 1.01);
+  // The same division without the dataset's cached divisors.
+  const cv::Mat raw = cv::imread(corrected->info(4).depth_path, cv::IMREAD_UNCHANGED);
+  EXPECT_EQ(cv::countNonZero(RangeImageToMetres(raw, rig.range) != depth), 0);
+}
+
 TEST_F(DatasetFilesTest, TumConstructorRejectsBadOptionsWithConfigError) {
   MakeTum(2);
   DatasetOptions bad;

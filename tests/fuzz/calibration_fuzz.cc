@@ -34,6 +34,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
           back.colour.width == rig.colour.width &&
           back.range.depth_scale == rig.range.depth_scale &&
           back.range.invalid_values == rig.range.invalid_values &&
+          back.range.depth_correction == rig.range.depth_correction &&
           back.T_colour_range.isApprox(rig.T_colour_range, 1e-12));
   return 0;
 }

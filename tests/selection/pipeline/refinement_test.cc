@@ -2,6 +2,10 @@
 #include "selection/pipeline/refinement.h"
 
 #include <algorithm>
+#include <cmath>
+#include <optional>
+#include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -88,6 +92,54 @@ TEST(RefinementTest, AStopRequestInterruptsTheSolveAndIsAFailure) {
   EXPECT_TRUE(Refine(filtered.problem, data.camera, filtered.estimate, BundleAdjustmentOptions(),
                      DepthAlignmentOptions())
                   .ok());
+}
+
+// Asked for, the depth correction is estimated from the check's solve and reported; the
+// simulation's ranges have none, so it comes out zero within its sigma, and the calibration it
+// makes is the rig's with those coefficients added. The check and the refinement are the
+// same solves as without it.
+TEST(RefinementTest, EstimatesAndReportsTheDepthCorrectionWhenAsked) {
+  SimulatedDataset data;
+  const PipelineResult filtered = FilteredSimulation(&data);
+  BundleAdjustmentOptions ba;
+  ba.estimate_depth_correction = true;
+  const Refinement with =
+      Refine(filtered.problem, data.camera, filtered.estimate, ba, DepthAlignmentOptions());
+  const Refinement without = Refine(filtered.problem, data.camera, filtered.estimate,
+                                    BundleAdjustmentOptions(), DepthAlignmentOptions());
+  ASSERT_TRUE(with.ok());
+  ASSERT_TRUE(with.depth_correction_tried);
+  ASSERT_TRUE(with.depth_correction.usable) << with.depth_correction.failure;
+  EXPECT_FALSE(without.depth_correction_tried);
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_LT(std::fabs(with.depth_correction.coefficients[i]),
+              5.0 * std::sqrt(with.depth_correction.covariance(i, i)))
+        << i;
+  }
+  EXPECT_EQ(with.smoothed.final_cost, without.smoothed.final_cost);
+  const std::string json = RefinementToJson(with).Dump();
+  EXPECT_NE(json.find("\"depth_correction\""), std::string::npos);
+  EXPECT_NE(json.find("\"chi_square_drop\""), std::string::npos);
+  EXPECT_EQ(RefinementToJson(without).Dump().find("\"depth_correction\""), std::string::npos);
+
+  Rig rig;
+  rig.colour = data.camera;
+  rig.range.camera = data.camera;
+  rig.registered = true;
+  rig.range.noise.a = 0.001;
+  rig.range.depth_correction = {0.01, 0.0, 0.0};
+  std::vector<std::string> warnings;
+  const std::optional<Rig> corrected = CorrectedCalibration(with, rig, &warnings);
+  ASSERT_TRUE(corrected.has_value()) << (warnings.empty() ? "" : warnings[0]);
+  EXPECT_EQ(corrected->range.depth_correction[0], 0.01 + with.depth_correction.coefficients[0]);
+  EXPECT_TRUE(warnings.empty());
+  EXPECT_FALSE(CorrectedCalibration(without, rig, &warnings).has_value());
+  // An estimate that no calibration can hold is not written, with a warning.
+  Refinement absurd = with;
+  absurd.depth_correction.coefficients = {-3.0, 0.0, 0.0};
+  EXPECT_FALSE(CorrectedCalibration(absurd, rig, &warnings).has_value());
+  ASSERT_EQ(warnings.size(), 1u);
+  EXPECT_NE(warnings[0].find("corrected_calib.yaml"), std::string::npos) << warnings[0];
 }
 
 // Given clouds, the depth-aligned solve is the refinement and computes the covariances; the

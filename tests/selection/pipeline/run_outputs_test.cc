@@ -13,6 +13,7 @@
 #include "backend/ba_problem_io.h"
 #include "backend/evaluation/evaluation.h"
 #include "backend/evaluation/evaluation_io.h"
+#include "core/calibration.h"
 #include "core/trajectory.h"
 #include "test_files.h"
 
@@ -170,6 +171,41 @@ TEST_F(RunOutputsTest, AFailedRefinementIsReportedAndNotWrittenAsRefined) {
   EXPECT_NE(report.find("\"refinement_failed\": \"the bundle adjustment failed (FAILURE: test)\""),
             std::string::npos)
       << report;
+}
+
+// With the depth correction asked for, the run writes the dataset's calibration with it as
+// corrected_calib.yaml, which reads back; a second pass that reads that very file, into the
+// same directory, neither removes nor replaces it, and says so.
+TEST_F(RunOutputsTest, TheCorrectedCalibrationIsWrittenButNeverOverTheOneInUse) {
+  RunOptions options = Options();
+  options.build_map = false;
+  options.save_map = false;
+  options.pipeline.refine = true;
+  options.pipeline.ba.estimate_depth_correction = true;
+  const RunResult first = RunAndWrite(options);
+  ASSERT_TRUE(first.refined());
+  ASSERT_TRUE(first.corrected_calibration.has_value());
+  const fs::path written = out_ / "corrected_calib.yaml";
+  ASSERT_TRUE(fs::is_regular_file(written));
+  const Rig back = ReadCalibration(written.string());
+  EXPECT_EQ(back.range.depth_correction, first.corrected_calibration->range.depth_correction);
+  EXPECT_TRUE(back.range.HasDepthCorrection());
+
+  const std::string before = ReadFile(written);
+  options.dataset_options.calib_file = written.string();
+  const RunResult second = RunAndWrite(options);
+  ASSERT_TRUE(second.corrected_calibration.has_value());
+  EXPECT_EQ(ReadFile(written), before);
+  EXPECT_NE(ReadFile(out_ / "report.json").find("is the calibration this run read"),
+            std::string::npos);
+  // Without the estimate, the same pass into the same directory still keeps it.
+  options.pipeline.ba.estimate_depth_correction = false;
+  RunAndWrite(options);
+  EXPECT_EQ(ReadFile(written), before);
+  // A run that reads another calibration clears an earlier run's corrected_calib.yaml.
+  options.dataset_options.calib_file.clear();
+  RunAndWrite(options);
+  EXPECT_FALSE(fs::exists(written));
 }
 
 TEST_F(RunOutputsTest, AStopWhileWritingIsReportedAsInterrupted) {
