@@ -1,6 +1,7 @@
 #include "apps/app_util.h"
 
 #include <cerrno>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -76,6 +77,16 @@ DatasetOptions DatasetOptionsFromFlags(const Flags& flags) {
 
 void PrintWarning(const std::string& command, const std::string& text) {
   std::fprintf(stderr, "%s: warning: %s\n", command.c_str(), text.c_str());
+}
+
+void PrintDepthCorrection(const std::string& command, const Refinement& refinement) {
+  const DepthCorrectionEstimate& e = refinement.depth_correction;
+  if (!refinement.depth_correction_tried || !e.usable) return;
+  std::printf(
+      "%s: depth correction a %.4f b %.4f c %.4f (sigma %.4f %.4f %.4f), chi-square drop %.0f\n",
+      command.c_str(), e.coefficients[0], e.coefficients[1], e.coefficients[2],
+      std::sqrt(e.covariance(0, 0)), std::sqrt(e.covariance(1, 1)), std::sqrt(e.covariance(2, 2)),
+      2.0 * (e.cost_without - e.cost_with));
 }
 
 void WarnAboutDataset(const std::string& command, const Dataset& dataset) {

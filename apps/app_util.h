@@ -9,6 +9,7 @@
 #include "apps/flags.h"
 #include "apps/option_flags.h"
 #include "core/dataset.h"
+#include "selection/pipeline/refinement.h"
 #include "selection/pipeline/run_options.h"
 #include "selection/pipeline/saved_map.h"
 
@@ -49,6 +50,10 @@ class Progress {
 void PrintWarning(const std::string& command, const std::string& text);
 // The dataset's warnings (Dataset::warnings, a guessed calibration), before it is used.
 void WarnAboutDataset(const std::string& command, const Dataset& dataset);
+
+// "<command>: depth correction a b c (sigma ...)" on stdout, when the refinement estimated one.
+void PrintDepthCorrection(const std::string& command, const Refinement& refinement);
+
 // One warning per skipped frame (the first few; report.json lists them all), so that a bad
 // image in the middle of a long sequence is seen without reading the report.
 void WarnAboutSkippedFrames(const std::string& command,

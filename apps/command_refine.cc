@@ -137,6 +137,7 @@ int RefineCommand(const CommandArgs& args) {
   if (refined.ate_refined_m >= 0.0) {
     std::printf("refine: ATE RMSE refined keyframes %.4f m\n", refined.ate_refined_m);
   }
+  PrintDepthCorrection("refine", refined.refinement);
   std::printf("refine: results in %s\n", out.c_str());
   return 0;
 }

@@ -56,6 +56,7 @@ void PrintSummary(const Dataset& dataset, const RunResult& run, const std::strin
       std::printf("run: ATE RMSE refined keyframes %.4f m\n", run.ate_refined_m);
     }
   }
+  if (run.refined()) PrintDepthCorrection("run", *p.refinement);
   std::printf("run: results in %s\n", output.c_str());
 }
 

@@ -345,5 +345,40 @@ TEST_F(CommandRunTest, RefineIntoTheRunsDirectoryKeepsItsReportAndARerunClearsTh
   EXPECT_TRUE(fs::is_regular_file(out / "report.json"));
 }
 
+// `ieslam refine --dataset` with the depth correction asked for prints it and writes the
+// dataset's calibration with it (refine_corrected_calib.yaml into the run's directory, which a
+// later run clears); a refine that reads that file as its calibration does not replace it.
+TEST_F(CommandRunTest, RefineWritesTheCorrectedCalibrationButNotOverTheOneItReads) {
+  const fs::path out = root_ / "depth_correction";
+  const fs::path config = root_ / "estimate.yaml";
+  std::ofstream(config) << "ba:\n  estimate_depth_correction: 1\n";
+  const std::string dataset = " --dataset " + (root_ / "synthetic").string();
+  const std::string run_command = "run --quiet --threads 1" + dataset + " --output " + out.string();
+  ASSERT_EQ(testing_apps::RunIeslam(run_command).exit_code, 0);
+  const std::string refine = "refine --threads 1 --run " + out.string() + dataset + " --config " +
+                             config.string() + " --output ";
+  const testing_apps::CommandResult into_run = testing_apps::RunIeslam(refine + out.string());
+  ASSERT_EQ(into_run.exit_code, 0) << into_run.output;
+  EXPECT_NE(into_run.output.find("refine: depth correction a "), std::string::npos)
+      << into_run.output;
+  ASSERT_TRUE(fs::is_regular_file(out / "refine_corrected_calib.yaml"));
+  EXPECT_FALSE(fs::exists(out / "corrected_calib.yaml"));
+  EXPECT_NE(ReadFile(out / "refine_corrected_calib.yaml").find("depth_correction"),
+            std::string::npos);
+
+  const fs::path other = root_ / "depth_correction_other";
+  ASSERT_EQ(testing_apps::RunIeslam(refine + other.string()).exit_code, 0);
+  const std::string written = ReadFile(other / "corrected_calib.yaml");
+  const testing_apps::CommandResult again = testing_apps::RunIeslam(
+      refine + other.string() + " --calib " + (other / "corrected_calib.yaml").string());
+  ASSERT_EQ(again.exit_code, 0) << again.output;
+  EXPECT_NE(again.output.find("is the calibration the dataset was read with"), std::string::npos)
+      << again.output;
+  EXPECT_EQ(ReadFile(other / "corrected_calib.yaml"), written);
+
+  ASSERT_EQ(testing_apps::RunIeslam(run_command).exit_code, 0);
+  EXPECT_FALSE(fs::exists(out / "refine_corrected_calib.yaml"));
+}
+
 }  // namespace
 }  // namespace ieslam

@@ -186,7 +186,7 @@ TEST_F(CalibrationFileTest, DepthCorrectionIsOptionalRoundTripsAndIsChecked) {
     return Write("bad.yaml",
                  text.substr(0, at) + "depth_correction: " + list + text.substr(end + 1));
   };
-  for (const std::string& list : {"[0.6, 0.0, 0.0]", "[0.0, 0.0]"}) {
+  for (const char* list : {"[0.6, 0.0, 0.0]", "[0.0, 0.0]"}) {
     const std::string message = ConfigErrorOf(with(list));
     EXPECT_NE(message.find("depth_correction"), std::string::npos) << list << ": " << message;
   }
