@@ -23,50 +23,42 @@ namespace {
 using ba_internal::Parameters;
 
 // UvdResidual's (u, v, d) with the range scaled by the correction's factor at the point's
-// place in the range imager.
+// place in the range imager: UvdResidual's whitened error W e plus W's range column times what
+// the factor adds to the range, |p_c| (factor - 1).
 class CorrectedUvdResidual {
  public:
   CorrectedUvdResidual(const PinholeCamera& camera, const Eigen::Isometry3d& T_range_colour,
                        const Eigen::Vector3d& z, const Eigen::Matrix3d& sqrt_information,
                        double min_depth_m)
-      : fx_(camera.fx),
-        fy_(camera.fy),
-        cx_(camera.cx),
-        cy_(camera.cy),
+      : uvd_(camera, z, sqrt_information, min_depth_m),
         R_rc_(T_range_colour.linear()),
         t_rc_(T_range_colour.translation()),
-        z_(z),
-        W_(sqrt_information),
+        W_range_(sqrt_information.col(2)),
         min_depth_m_(min_depth_m) {}
 
   template <typename T>
   bool operator()(const T* q_w_c_ptr, const T* t_w_c_ptr, const T* p_w_ptr, const T* k,
                   T* residual) const {
+    if (!uvd_(q_w_c_ptr, t_w_c_ptr, p_w_ptr, residual)) return false;
     const Eigen::Map<const Eigen::Quaternion<T>> q_w_c(q_w_c_ptr);
     const Eigen::Map<const Eigen::Matrix<T, 3, 1>> t_w_c(t_w_c_ptr);
     const Eigen::Map<const Eigen::Matrix<T, 3, 1>> p_w(p_w_ptr);
     const Eigen::Matrix<T, 3, 1> p_c =
         q_w_c.normalized().toRotationMatrix().transpose() * (p_w - t_w_c);
-    if (!(p_c[2] > T(min_depth_m_))) return false;
     const Eigen::Matrix<T, 3, 1> p_r = R_rc_.cast<T>() * p_c + t_rc_.cast<T>();
     if (!(p_r[2] > T(min_depth_m_))) return false;
     const T x = p_r[0] / p_r[2], y = p_r[1] / p_r[2];
-    const T factor = T(1.0) + k[0] * x + k[1] * y + k[2] * (x * x + y * y);
-    Eigen::Matrix<T, 3, 1> error;
-    error[0] = T(fx_) * p_c[0] / p_c[2] + T(cx_) - T(z_[0]);
-    error[1] = T(fy_) * p_c[1] / p_c[2] + T(cy_) - T(z_[1]);
-    error[2] = p_c.norm() * factor - T(z_[2]);
+    const T added = k[0] * x + k[1] * y + k[2] * (x * x + y * y);
     Eigen::Map<Eigen::Matrix<T, 3, 1>> r(residual);
-    r = W_.cast<T>() * error;
+    r += W_range_.cast<T>() * (p_c.norm() * added);
     return true;
   }
 
  private:
-  double fx_, fy_, cx_, cy_;
+  UvdResidual uvd_;
   Eigen::Matrix3d R_rc_;
   Eigen::Vector3d t_rc_;
-  Eigen::Vector3d z_;
-  Eigen::Matrix3d W_;
+  Eigen::Vector3d W_range_;  // the whitening's range column
   double min_depth_m_;
 };
 
