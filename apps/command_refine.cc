@@ -77,7 +77,8 @@ int RefineCommand(const CommandArgs& args) {
         "pairwise in the refinement (as `ieslam run --refine`), and with\n"
         "ba: {estimate_depth_correction: 1} the dataset's calibration with the\n"
         "estimated depth correction is written as corrected_calib.yaml\n"
-        "(refine_corrected_calib.yaml when OUT is DIR).",
+        "(refine_corrected_calib.yaml when OUT is DIR); with apply_depth_correction: 1\n"
+        "too, the refinement is made again with the estimate applied.",
         kRefineFlags);
     return 0;
   }
@@ -136,6 +137,10 @@ int RefineCommand(const CommandArgs& args) {
               problem.p_w.size(), problem.observations.size(), refined.refinement.seconds);
   if (refined.ate_refined_m >= 0.0) {
     std::printf("refine: ATE RMSE refined keyframes %.4f m\n", refined.ate_refined_m);
+    if (refined.ate_refined_uncorrected_m >= 0.0) {
+      std::printf("refine: ATE RMSE refined keyframes without the depth correction %.4f m\n",
+                  refined.ate_refined_uncorrected_m);
+    }
   }
   PrintDepthCorrection("refine", refined.refinement);
   std::printf("refine: results in %s\n", out.c_str());

@@ -54,6 +54,10 @@ void PrintSummary(const Dataset& dataset, const RunResult& run, const std::strin
                 run.ate_trajectory_m);
     if (run.refined()) {
       std::printf("run: ATE RMSE refined keyframes %.4f m\n", run.ate_refined_m);
+      if (run.ate_refined_uncorrected_m >= 0.0) {
+        std::printf("run: ATE RMSE refined keyframes without the depth correction %.4f m\n",
+                    run.ate_refined_uncorrected_m);
+      }
     }
   }
   if (run.refined()) PrintDepthCorrection("run", *p.refinement);

@@ -114,8 +114,14 @@ struct BundleAdjustmentOptions {
   // Read by the batch refinement, not by the solver: after the bundle adjustment the filter is
   // checked against, the range imager's depth correction is estimated from that adjustment's
   // observations (backend/depth_correction.h) and reported, with a calibration that applies it
-  // for the next run. The refinement's own solves keep the depth as it was read.
+  // for the next run. The refinement's own solves keep the depth as it was read (but see
+  // apply_depth_correction).
   bool estimate_depth_correction = false;
+  // Read by the batch refinement too (needs estimate_depth_correction): with a usable estimate
+  // that a calibration allows, the refinement is made again, every range of the observations
+  // and the clouds divided by the estimate's factor, and that is the refinement (one-pass
+  // self-calibration).
+  bool apply_depth_correction = false;
   // With the Schur solvers the features are eliminated first and the reduced camera system
   // of the poses is factored, densely (Eigen) or sparsely (SuiteSparse/CHOLMOD);
   // sparse_normal_cholesky factors the whole normal equations with CHOLMOD. auto: dense

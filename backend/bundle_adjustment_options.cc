@@ -82,6 +82,8 @@ const OptionTable<BundleAdjustmentOptions>& BundleAdjustmentOptions::Table() {
             "the refinement weighs every registered observation, not the filter's gated set");
     t->Bool("estimate_depth_correction", &O::estimate_depth_correction,
             "the refinement estimates the range imager's depth_correction (corrected_calib.yaml)");
+    t->Bool("apply_depth_correction", &O::apply_depth_correction,
+            "the refinement is made again with the estimated correction applied to every range");
     t->Int("max_iterations", &O::max_iterations, "Levenberg-Marquardt iterations per solve").Min(1);
     t->Double("cost_tolerance", &O::cost_tolerance,
               "a step's gain or its model's miss below this ends a solve (1/2 chi-square; 0: off)")
@@ -110,6 +112,11 @@ const OptionTable<BundleAdjustmentOptions>& BundleAdjustmentOptions::Table() {
       return o.robust_loss != BaRobustLoss::kHuber || o.huber_scale > 0.0
                  ? std::string()
                  : "huber_scale must be > 0 with robust_loss huber";
+    });
+    t->Require([](const O& o) {
+      return !o.apply_depth_correction || o.estimate_depth_correction
+                 ? std::string()
+                 : "apply_depth_correction needs estimate_depth_correction: 1";
     });
     return t;
   }();

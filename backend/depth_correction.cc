@@ -3,8 +3,10 @@
 #include <algorithm>
 #include <chrono>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <set>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -216,6 +218,100 @@ DepthCorrectionEstimate EstimateDepthCorrection(const BundleAdjustmentProblem& p
 RangeImager WithDepthCorrection(const RangeImager& range, const DepthCorrectionEstimate& estimate) {
   RangeImager corrected = range;
   for (int i = 0; i < 3; ++i) corrected.depth_correction[i] += estimate.coefficients[i];
+  return corrected;
+}
+
+double DepthCorrectionFactorAt(const Eigen::Vector3d& p_r,
+                               const std::array<double, 3>& coefficients) {
+  return RangeImager::DepthCorrectionFactor(coefficients, p_r.x() / p_r.z(), p_r.y() / p_r.z());
+}
+
+double ObservedDepthCorrectionFactor(const FeatureObservation& o, const PinholeCamera& camera,
+                                     const Eigen::Isometry3d& T_range_colour,
+                                     const std::array<double, 3>& coefficients) {
+  const Eigen::Vector3d ray((o.z.x() - camera.cx) / camera.fx, (o.z.y() - camera.cy) / camera.fy,
+                            1.0);
+  const Eigen::Vector3d p_r = T_range_colour * (o.z.z() * ray.normalized());
+  return p_r.z() > 0.0 ? DepthCorrectionFactorAt(p_r, coefficients) : 0.0;
+}
+
+BundleAdjustmentProblem WithRangesCorrected(const BundleAdjustmentProblem& problem,
+                                            const PinholeCamera& camera,
+                                            const Eigen::Isometry3d& T_colour_range,
+                                            const std::array<double, 3>& coefficients) {
+  BundleAdjustmentProblem corrected = problem;
+  const Eigen::Isometry3d T_range_colour = T_colour_range.inverse();
+  for (auto* observations : {&corrected.observations, &corrected.registered}) {
+    for (BundleAdjustmentObservation& o : *observations) {
+      const double factor =
+          ObservedDepthCorrectionFactor(o.observation, camera, T_range_colour, coefficients);
+      if (!(factor > 0.0)) continue;
+      const Eigen::DiagonalMatrix<double, 3> scale(1.0, 1.0, 1.0 / factor);
+      o.observation.z.z() /= factor;
+      o.observation.Q = scale * o.observation.Q * scale;
+    }
+  }
+  return corrected;
+}
+
+std::string DepthCorrectionRefused(const BundleAdjustmentProblem& problem,
+                                   const PinholeCamera& camera,
+                                   const Eigen::Isometry3d& T_colour_range,
+                                   const std::array<double, 3>& coefficients) {
+  for (const double k : coefficients) {
+    if (!(std::fabs(k) <= RangeImager::kMaxDepthCorrectionCoefficient)) {
+      return "a coefficient of " + std::to_string(k) + " is beyond what a calibration allows";
+    }
+  }
+  const Eigen::Isometry3d T_range_colour = T_colour_range.inverse();
+  for (const auto* observations : {&problem.observations, &problem.registered}) {
+    for (const BundleAdjustmentObservation& o : *observations) {
+      const double factor =
+          ObservedDepthCorrectionFactor(o.observation, camera, T_range_colour, coefficients);
+      if (!(factor >= RangeImager::kMinDepthCorrectionFactor &&
+            factor <= RangeImager::kMaxDepthCorrectionFactor)) {
+        return "it gives a factor of " + std::to_string(factor) + " at an observation of frame " +
+               std::to_string(o.frame_id) + ", beyond what a calibration allows";
+      }
+    }
+  }
+  return "";
+}
+
+RangeCloud WithRangesCorrected(const RangeCloud& cloud, const std::array<double, 3>& coefficients) {
+  const auto& [a, b, c] = coefficients;
+  RangeCloud corrected = cloud;
+  for (int gy = 0; gy < cloud.grid.height; ++gy) {
+    // A rolling shutter's points are read in their row's frame: corrected there.
+    const Eigen::Isometry3d to_row = cloud.to_row.empty()
+                                         ? Eigen::Isometry3d::Identity()
+                                         : Eigen::Isometry3d(cloud.to_row[gy].cast<double>());
+    const Eigen::Isometry3d from_row = to_row.inverse();
+    for (int gx = 0; gx < cloud.grid.width; ++gx) {
+      const size_t cell = static_cast<size_t>(gy) * cloud.grid.width + gx;
+      if (!cloud.Valid(static_cast<int>(cell))) continue;
+      const Eigen::Vector3d p = to_row * cloud.p_r[cell].cast<double>();
+      const Eigen::Vector3d n = to_row.linear() * cloud.n_r[cell].cast<double>();
+      const double factor = p.z() > 0.0 ? DepthCorrectionFactorAt(p, coefficients) : 0.0;
+      if (!(factor >= RangeImager::kMinDepthCorrectionFactor &&
+            factor <= RangeImager::kMaxDepthCorrectionFactor)) {
+        const float nan = std::numeric_limits<float>::quiet_NaN();
+        corrected.p_r[cell] = corrected.n_r[cell] = Eigen::Vector3f::Constant(nan);
+        corrected.sigma_m[cell] = nan;
+        continue;
+      }
+      const double x = p.x() / p.z(), y = p.y() / p.z();
+      // The map p -> p / f(p), f of degree 0 in p (so grad f . p = 0), has the Jacobian
+      // (I - p g^T / f) / f, g = grad f; a normal goes by its inverse transpose,
+      // n + g (p . n) / f up to scale.
+      const double f_x = a + 2.0 * c * x, f_y = b + 2.0 * c * y;
+      const Eigen::Vector3d g = Eigen::Vector3d(f_x, f_y, -(f_x * x + f_y * y)) / p.z();
+      const Eigen::Vector3d n_corrected = (n + g * (p.dot(n) / factor)).normalized();
+      corrected.p_r[cell] = (from_row * (p / factor)).cast<float>();
+      corrected.n_r[cell] = (from_row.linear() * n_corrected).cast<float>();
+      corrected.sigma_m[cell] = static_cast<float>(cloud.sigma_m[cell] / factor);
+    }
+  }
   return corrected;
 }
 

@@ -19,6 +19,7 @@
 
 #include "backend/bundle_adjustment.h"
 #include "core/camera.h"
+#include "core/range_cloud.h"
 
 namespace ieslam {
 
@@ -56,5 +57,44 @@ DepthCorrectionEstimate EstimateDepthCorrection(const BundleAdjustmentProblem& p
 // product's quadratic terms beyond the model (a a' x^2 and the like, a few 1e-4 for
 // corrections of a few per cent) are left out.
 RangeImager WithDepthCorrection(const RangeImager& range, const DepthCorrectionEstimate& estimate);
+
+// The factor 1 + a x + b y + c (x^2 + y^2) of `coefficients` (a, b, c) at the point p_r of the
+// range imager's frame, (x, y) its normalised coordinates: how much a range read there exceeds
+// the true one. The same for every point on p_r's ray.
+double DepthCorrectionFactorAt(const Eigen::Vector3d& p_r,
+                               const std::array<double, 3>& coefficients);
+
+// The factor of `coefficients` at the point the observation o = (u, v, range) of `camera` saw,
+// placed in the range imager by T_range_colour (the inverse of Rig::T_colour_range); 0 when
+// that point is not in front of the imager.
+double ObservedDepthCorrectionFactor(const FeatureObservation& o, const PinholeCamera& camera,
+                                     const Eigen::Isometry3d& T_range_colour,
+                                     const std::array<double, 3>& coefficients);
+
+// `problem` as a range imager whose calibration held `coefficients` would have measured it:
+// each observation's range (the filter's and the registered ones) divided by the factor at the
+// point it observed ((u, v) in `camera` at that range, placed in the range imager by
+// T_colour_range), and Q's range row and column by the same factor (the reading's noise is
+// divided with it). An observation whose point is not in front of the range imager is kept
+// as it is.
+BundleAdjustmentProblem WithRangesCorrected(const BundleAdjustmentProblem& problem,
+                                            const PinholeCamera& camera,
+                                            const Eigen::Isometry3d& T_colour_range,
+                                            const std::array<double, 3>& coefficients);
+
+// Why `coefficients` are no correction to apply to `problem`: a coefficient, or the factor at
+// one of its observations (ObservedDepthCorrectionFactor), beyond what a calibration allows
+// (RangeImager::Check); empty when they are one.
+std::string DepthCorrectionRefused(const BundleAdjustmentProblem& problem,
+                                   const PinholeCamera& camera,
+                                   const Eigen::Isometry3d& T_colour_range,
+                                   const std::array<double, 3>& coefficients);
+
+// `cloud` as the corrected range image would have given it: each point divided by the factor
+// at it (along its ray; for a rolling shutter in the frame of the row it was read on), its
+// normal turned with the surface (the inverse transpose of that map's Jacobian) and its range
+// sigma divided by the factor. A point where the factor lies outside what a calibration allows
+// (RangeImager::kMinDepthCorrectionFactor to kMaxDepthCorrectionFactor) is left out (invalid).
+RangeCloud WithRangesCorrected(const RangeCloud& cloud, const std::array<double, 3>& coefficients);
 
 }  // namespace ieslam

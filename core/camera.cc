@@ -80,7 +80,7 @@ bool RangeImager::Check(std::string* why) const {
   if (HasDepthCorrection()) {
     for (const double k : depth_correction) {
       // Half a reading per unit of normalised coordinate is no calibration any more.
-      if (!(std::fabs(k) <= 0.5)) {
+      if (!(std::fabs(k) <= kMaxDepthCorrectionCoefficient)) {
         return Fail(why, "range imager: depth_correction coefficients must be within +-0.5, got " +
                              std::to_string(k));
       }
@@ -93,7 +93,7 @@ bool RangeImager::Check(std::string* why) const {
         const Eigen::Vector2d pixel(i * (camera.width - 1) / 16.0, j * (camera.height - 1) / 16.0);
         const Eigen::Vector3d ray = camera.Unproject(pixel);
         const double factor = DepthCorrectionFactor(ray.x(), ray.y());
-        if (!(factor >= 0.5 && factor <= 2.0)) {
+        if (!(factor >= kMinDepthCorrectionFactor && factor <= kMaxDepthCorrectionFactor)) {
           std::ostringstream message;
           message << "range imager: depth_correction gives a factor of " << factor << " at pixel ("
                   << pixel.x() << ", " << pixel.y() << "); it must stay within [0.5, 2]";

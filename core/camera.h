@@ -88,14 +88,25 @@ struct RangeImager {
   // a range image (RangeImageToMetres). All 0: none. The refinement estimates it
   // (backend/depth_correction.h).
   std::array<double, 3> depth_correction{};  // a, b, c
+  // What Check allows of it: each coefficient within +-kMaxDepthCorrectionCoefficient, and the
+  // factor within [kMinDepthCorrectionFactor, kMaxDepthCorrectionFactor] over the image (a
+  // correction that halves or doubles a reading is no calibration).
+  static constexpr double kMaxDepthCorrectionCoefficient = 0.5;
+  static constexpr double kMinDepthCorrectionFactor = 0.5;
+  static constexpr double kMaxDepthCorrectionFactor = 2.0;
 
   bool Check(std::string* why) const;
   bool HasDepthCorrection() const {
     return depth_correction[0] != 0.0 || depth_correction[1] != 0.0 || depth_correction[2] != 0.0;
   }
-  double DepthCorrectionFactor(double x, double y) const {
-    const auto& [a, b, c] = depth_correction;
+  // 1 + a x + b y + c (x^2 + y^2) of `coefficients` (a, b, c).
+  static double DepthCorrectionFactor(const std::array<double, 3>& coefficients, double x,
+                                      double y) {
+    const auto& [a, b, c] = coefficients;
     return 1.0 + a * x + b * y + c * (x * x + y * y);
+  }
+  double DepthCorrectionFactor(double x, double y) const {
+    return DepthCorrectionFactor(depth_correction, x, y);
   }
   // Metres for a raw value, or 0 when the value is invalid or outside [min, max] range.
   double RawToMetres(int raw) const;

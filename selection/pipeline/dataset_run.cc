@@ -257,8 +257,14 @@ void EvaluateAgainstGroundTruth(RunResult* run) {
   run->ate_keyframes_m = Ate(gt, run->keyframes, "keyframes.tum", &run->warnings);
   run->ate_trajectory_m = Ate(gt, run->trajectory, "trajectory.tum", &run->warnings);
   if (run->refined()) {
-    run->ate_refined_m = Ate(gt, RefinedTrajectory(*run->pipeline.refinement, run->timestamps),
-                             "refined.tum", &run->warnings);
+    const Refinement& refinement = *run->pipeline.refinement;
+    run->ate_refined_m =
+        Ate(gt, RefinedTrajectory(refinement, run->timestamps), "refined.tum", &run->warnings);
+    if (refinement.corrected) {
+      run->ate_refined_uncorrected_m =
+          Ate(gt, SolvedTrajectory(refinement.uncorrected_refined(), run->timestamps),
+              "the refinement without the depth correction", &run->warnings);
+    }
   }
   if (run->pipeline.has_estimate) {
     run->consistency_filter =

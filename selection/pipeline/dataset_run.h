@@ -50,6 +50,8 @@ struct RunResult {
   double ate_keyframes_m = -1.0;
   double ate_trajectory_m = -1.0;
   double ate_refined_m = -1.0;
+  // With the depth correction applied (Refinement::corrected): the refinement without it.
+  double ate_refined_uncorrected_m = -1.0;
   // The stated pose covariances against the ground truth (same origin as the estimate, no
   // alignment fitted): the filter's, and the refinement's when it computed them
   // (ba.compute_covariances); nullopt where there is nothing to compare.

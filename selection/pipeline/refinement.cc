@@ -1,8 +1,10 @@
 #include "selection/pipeline/refinement.h"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
+#include <memory>
 #include <set>
 #include <string>
 #include <utility>
@@ -164,14 +166,12 @@ void SolveAgainWithCovariances(const BundleAdjustmentProblem& problem, const Pin
   refinement->failure = FeaturesFailure(problem, *solved);
 }
 
-}  // namespace
-
-Refinement Refine(const BundleAdjustmentProblem& problem, const PinholeCamera& camera,
-                  const SlamEstimate& filter_estimate, const BundleAdjustmentOptions& ba,
-                  const DepthAlignmentOptions& depth, const RangeClouds* clouds,
-                  const Eigen::Isometry3d& T_colour_range) {
+// Refine without applying a depth correction (the estimate is made when ba asks for it).
+Refinement RefineOnce(const BundleAdjustmentProblem& problem, const PinholeCamera& camera,
+                      const SlamEstimate& filter_estimate, const BundleAdjustmentOptions& ba,
+                      const DepthAlignmentOptions& depth, const RangeClouds* clouds,
+                      const Eigen::Isometry3d& T_colour_range) {
   Refinement refinement;
-  const auto start = std::chrono::steady_clock::now();
   // Only the solve that is the refinement computes covariances: with clouds to align the
   // depth-aligned one, else the registered one when tried, else the check's; a fallback
   // solves again for them.
@@ -229,7 +229,6 @@ Refinement Refine(const BundleAdjustmentProblem& problem, const PinholeCamera& c
       }
     }
   }
-  refinement.seconds = SecondsSince(start);
   refinement.comparison =
       CompareFilterToSmoother(filter_estimate, SmootherEstimate(refinement.smoothed));
   if (refinement.registered_used) {
@@ -243,15 +242,89 @@ Refinement Refine(const BundleAdjustmentProblem& problem, const PinholeCamera& c
   return refinement;
 }
 
-Trajectory RefinedTrajectory(const Refinement& refinement,
-                             const std::map<int, double>& timestamps) {
+// Whether a solve of `refinement` was stopped by the caller's stop.
+bool Interrupted(const Refinement& refinement) {
+  return refinement.smoothed.interrupted || refinement.registered.interrupted ||
+         refinement.depth_aligned.interrupted;
+}
+
+// The refinement of `problem` and `clouds` again with every range corrected by the usable
+// estimate in *refinement, as refinement->corrected; its warnings join refinement's. A failure
+// leaves the uncorrected refinement, with a warning; an interruption is refinement's failure.
+void RefineCorrected(const BundleAdjustmentProblem& problem, const PinholeCamera& camera,
+                     const SlamEstimate& filter_estimate, const BundleAdjustmentOptions& ba,
+                     const DepthAlignmentOptions& depth, const RangeClouds* clouds,
+                     const Eigen::Isometry3d& T_colour_range, Refinement* refinement) {
+  const auto start = std::chrono::steady_clock::now();
+  const std::array<double, 3>& k = refinement->depth_correction.coefficients;
+  const std::string refused = DepthCorrectionRefused(problem, camera, T_colour_range, k);
+  if (!refused.empty()) {
+    refinement->warnings.push_back("the depth correction is not applied: " + refused);
+    return;
+  }
+  RangeClouds corrected_clouds;
+  if (clouds != nullptr) {
+    corrected_clouds.frames_left_out = clouds->frames_left_out;
+    for (const auto& [frame, cloud] : clouds->clouds) {
+      corrected_clouds.clouds.emplace(frame, WithRangesCorrected(cloud, k));
+    }
+  }
+  BundleAdjustmentOptions corrected_ba = ba;
+  corrected_ba.estimate_depth_correction = false;
+  corrected_ba.apply_depth_correction = false;
+  auto corrected = std::make_shared<Refinement>(RefineOnce(
+      WithRangesCorrected(problem, camera, T_colour_range, k), camera, filter_estimate,
+      corrected_ba, depth, clouds != nullptr ? &corrected_clouds : nullptr, T_colour_range));
+  corrected->seconds = SecondsSince(start);
+  for (const std::string& warning : corrected->warnings) {
+    refinement->warnings.push_back("with the depth correction applied: " + warning);
+  }
+  if (!corrected->ok()) {
+    if (Interrupted(*corrected)) {
+      refinement->failure = "with the depth correction applied: " + corrected->failure;
+    } else {
+      refinement->warnings.push_back("the refinement with the depth correction failed (" +
+                                     corrected->failure + "); refined.tum is the one without");
+    }
+    return;
+  }
+  refinement->change_from_uncorrected = CompareFilterToSmoother(
+      SmootherEstimate(refinement->uncorrected_refined()), SmootherEstimate(corrected->refined()));
+  refinement->corrected = std::move(corrected);
+}
+
+}  // namespace
+
+Refinement Refine(const BundleAdjustmentProblem& problem, const PinholeCamera& camera,
+                  const SlamEstimate& filter_estimate, const BundleAdjustmentOptions& ba,
+                  const DepthAlignmentOptions& depth, const RangeClouds* clouds,
+                  const Eigen::Isometry3d& T_colour_range) {
+  const auto start = std::chrono::steady_clock::now();
+  Refinement refinement =
+      RefineOnce(problem, camera, filter_estimate, ba, depth, clouds, T_colour_range);
+  if (ba.apply_depth_correction && refinement.ok() && refinement.depth_correction_tried &&
+      refinement.depth_correction.usable) {
+    RefineCorrected(problem, camera, filter_estimate, ba, depth, clouds, T_colour_range,
+                    &refinement);
+  }
+  refinement.seconds = SecondsSince(start);
+  return refinement;
+}
+
+Trajectory SolvedTrajectory(const BundleAdjustmentResult& solved,
+                            const std::map<int, double>& timestamps) {
   Trajectory trajectory;
-  for (const auto& [frame, T_w_c] : refinement.refined().T_w_c) {
+  for (const auto& [frame, T_w_c] : solved.T_w_c) {
     trajectory.push_back({timestamps.at(frame), T_w_c});
   }
   std::sort(trajectory.begin(), trajectory.end(),
             [](const TimedPose& a, const TimedPose& b) { return a.timestamp < b.timestamp; });
   return trajectory;
+}
+
+Trajectory RefinedTrajectory(const Refinement& refinement,
+                             const std::map<int, double>& timestamps) {
+  return SolvedTrajectory(refinement.refined(), timestamps);
 }
 
 std::optional<Rig> CorrectedCalibration(const Refinement& refinement, const Rig& rig,
@@ -282,7 +355,16 @@ Json RefinementToJson(const Refinement& refinement) {
   if (refinement.depth_alignment_tried)
     json.Set("depth_alignment", DepthAlignmentToJson(refinement));
   if (refinement.depth_correction_tried) {
-    json.Set("depth_correction", DepthCorrectionToJson(refinement.depth_correction));
+    Json correction = DepthCorrectionToJson(refinement.depth_correction);
+    correction.Set("applied", refinement.corrected != nullptr);
+    if (refinement.corrected) {
+      const FilterSmootherComparison& change = refinement.change_from_uncorrected;
+      correction.Set("change_from_uncorrected_translation_rmse_m", change.translation_m.rmse)
+          .Set("change_from_uncorrected_rotation_rmse_deg", change.rotation_deg.rmse)
+          .Set("refinement_seconds", refinement.corrected->seconds)
+          .Set("refinement", RefinementToJson(*refinement.corrected));
+    }
+    json.Set("depth_correction", correction);
   }
   return json;
 }

@@ -7,6 +7,7 @@
 #pragma once
 
 #include <map>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -64,6 +65,12 @@ struct Refinement {
   // the range imager's depth correction its observations imply.
   bool depth_correction_tried = false;
   DepthCorrectionEstimate depth_correction;
+  // With BundleAdjustmentOptions::apply_depth_correction and a usable estimate: the same
+  // refinement again with every range of the problem and the clouds corrected by it
+  // (WithRangesCorrected), and where its refined estimate differs from this one's. Null when
+  // not asked for, or when it failed (with a warning; an interruption is `failure`).
+  std::shared_ptr<const Refinement> corrected;
+  FilterSmootherComparison change_from_uncorrected;
   double seconds = 0.0;  // every solve
   std::vector<std::string> warnings;
   // Why there is no refinement to use: the problem has no observations, the bundle
@@ -75,9 +82,14 @@ struct Refinement {
 
   // The features' solve the refinement rests on: registered when used, else smoothed.
   const BundleAdjustmentResult& features() const { return registered_used ? registered : smoothed; }
-  // The refined estimate: depth_aligned when used, else features().
-  const BundleAdjustmentResult& refined() const {
+  // The refined estimate of the ranges as read: depth_aligned when used, else features().
+  const BundleAdjustmentResult& uncorrected_refined() const {
     return depth_alignment_used ? depth_aligned : features();
+  }
+  // The refined estimate: the corrected refinement's when there is one, else
+  // uncorrected_refined().
+  const BundleAdjustmentResult& refined() const {
+    return corrected ? corrected->refined() : uncorrected_refined();
   }
 };
 
@@ -85,7 +97,8 @@ struct Refinement {
 // `filter_estimate`; with ba.refine_registered, bundle-adjusts it again with its registered
 // observations (when it has them); with `clouds` and depth.rounds > 0, goes on with the clouds'
 // pairwise alignments; with ba.estimate_depth_correction, estimates the range imager's depth
-// correction from the check's solve (the range imager placed by T_colour_range). An
+// correction from the check's solve (the range imager placed by T_colour_range), and with
+// ba.apply_depth_correction refines again with it applied (Refinement::corrected). An
 // interruption (ba.stop) anywhere, like a failure of the check's
 // bundle adjustment (the one the filter is compared with) or of the depth-aligned refinement's
 // fallback, is `failure`: a half-done refinement is no refinement.
@@ -94,8 +107,11 @@ Refinement Refine(const BundleAdjustmentProblem& problem, const PinholeCamera& c
                   const DepthAlignmentOptions& depth, const RangeClouds* clouds = nullptr,
                   const Eigen::Isometry3d& T_colour_range = Eigen::Isometry3d::Identity());
 
-// The refined poses with their frames' timestamps (`timestamps` holds every frame's), in
+// The poses of `solved` with their frames' timestamps (`timestamps` holds every frame's), in
 // time order.
+Trajectory SolvedTrajectory(const BundleAdjustmentResult& solved,
+                            const std::map<int, double>& timestamps);
+// SolvedTrajectory of the refined estimate (Refinement::refined).
 Trajectory RefinedTrajectory(const Refinement& refinement, const std::map<int, double>& timestamps);
 
 // `rig` with the refinement's depth correction applied (WithDepthCorrection) when it has a

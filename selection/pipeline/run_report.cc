@@ -121,6 +121,9 @@ Json AteToJson(const RunResult& run, bool refine) {
   if (run.ate_keyframes_m >= 0.0) ate.Set("keyframes", run.ate_keyframes_m);
   if (run.ate_trajectory_m >= 0.0) ate.Set("trajectory", run.ate_trajectory_m);
   if (refine && run.ate_refined_m >= 0.0) ate.Set("refined", run.ate_refined_m);
+  if (refine && run.ate_refined_uncorrected_m >= 0.0) {
+    ate.Set("refined_without_depth_correction", run.ate_refined_uncorrected_m);
+  }
   return ate.empty() ? Json() : ate;
 }
 

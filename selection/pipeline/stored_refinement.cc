@@ -199,6 +199,16 @@ StoredRefinement RefineStoredRun(const std::string& run_dir, const Dataset* data
     result.ate_refined_m = AteAgainstFile(
         gt, [&] { return AsReadBackFromTum(result.refined, "refined.tum"); }, "refined.tum",
         &result.warnings);
+    if (result.refinement.corrected) {
+      result.ate_refined_uncorrected_m = AteAgainstFile(
+          gt,
+          [&] {
+            return AsReadBackFromTum(
+                SolvedTrajectory(result.refinement.uncorrected_refined(), stored.timestamps),
+                "the refinement without the depth correction");
+          },
+          "the refinement without the depth correction", &result.warnings);
+    }
   }
   return result;
 }
@@ -227,6 +237,9 @@ Json StoredRefinementReport(const std::string& run_dir, const std::string& datas
   report["seconds"].Set("ba", r.refinement.seconds);
   if (r.ate_keyframes_m >= 0.0) report["ate_rmse_m"].Set("keyframes", r.ate_keyframes_m);
   if (r.ate_refined_m >= 0.0) report["ate_rmse_m"].Set("refined", r.ate_refined_m);
+  if (r.ate_refined_uncorrected_m >= 0.0) {
+    report["ate_rmse_m"].Set("refined_without_depth_correction", r.ate_refined_uncorrected_m);
+  }
   report.Set("filter_vs_smoother", RefinementToJson(r.refinement));
   return report;
 }

@@ -38,6 +38,8 @@ struct StoredRefinement {
   // Against the ground truth, as `ieslam evaluate` computes them from the files (< 0: none).
   double ate_keyframes_m = -1.0;
   double ate_refined_m = -1.0;
+  // With the depth correction applied (Refinement::corrected): the refinement without it.
+  double ate_refined_uncorrected_m = -1.0;
   // With the dataset: its calibration with the estimated depth correction
   // (CorrectedCalibration).
   std::optional<Rig> corrected_calibration;

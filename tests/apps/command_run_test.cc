@@ -376,6 +376,22 @@ TEST_F(CommandRunTest, RefineWritesTheCorrectedCalibrationButNotOverTheOneItRead
       << again.output;
   EXPECT_EQ(ReadFile(other / "corrected_calib.yaml"), written);
 
+  // Applied, the refinement is made again with it, and both refined ATEs are printed and
+  // reported.
+  const fs::path apply = root_ / "apply.yaml";
+  std::ofstream(apply) << "ba:\n  estimate_depth_correction: 1\n  apply_depth_correction: 1\n";
+  const fs::path applied = root_ / "depth_correction_applied";
+  const testing_apps::CommandResult one_pass =
+      testing_apps::RunIeslam("refine --threads 1 --run " + out.string() + dataset + " --config " +
+                              apply.string() + " --output " + applied.string());
+  ASSERT_EQ(one_pass.exit_code, 0) << one_pass.output;
+  EXPECT_NE(one_pass.output.find("refined keyframes without the depth correction"),
+            std::string::npos)
+      << one_pass.output;
+  const std::string report = ReadFile(applied / "report.json");
+  EXPECT_NE(report.find("\"refined_without_depth_correction\""), std::string::npos);
+  EXPECT_NE(report.find("\"applied\": true"), std::string::npos);
+
   ASSERT_EQ(testing_apps::RunIeslam(run_command).exit_code, 0);
   EXPECT_FALSE(fs::exists(out / "refine_corrected_calib.yaml"));
 }

@@ -165,13 +165,8 @@ TEST(RangeCloudTest, TheRaysTableGivesTheSameCloud) {
 // wall finds itself on it, through the row that saw it.
 TEST(RangeCloudTest, RowMotionPlacesARollingShuttersRowsAndAssociatesThroughThem) {
   const RangeImager range = testing_core::KinectRangeImager();
-  const double rate = 1.5, readout = 0.03;  // rad/s about y (86 deg/s), s
-  const RangeRowMotion motion = [&](double row) {
-    const double tau = ((row + 0.5) / range.camera.height - 0.5) * readout;
-    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-    T.linear() = Eigen::AngleAxisd(rate * tau, Eigen::Vector3d::UnitY()).toRotationMatrix();
-    return T;
-  };
+  // 1.5 rad/s about y (86 deg/s), a 30 ms readout.
+  const RangeRowMotion motion = testing_core::TurningRowMotion(range, 1.5, 0.03);
   // The wall z = 2 of the frame's pose, as each row sees it: n . (M p_row) = 2.
   cv::Mat depth(range.camera.height, range.camera.width, CV_32FC1);
   for (int y = 0; y < depth.rows; ++y) {
