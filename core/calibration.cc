@@ -225,8 +225,8 @@ RangeImager ReadRange(const Section& s, const PinholeCamera& colour, bool regist
   if (s.Has("depth_correction")) {
     const std::vector<double> k = s.Numbers("depth_correction", 3);
     for (int i = 0; i < 3; ++i) {
-      // Half a reading's value per unit of normalised coordinate is no calibration any more.
-      if (!(std::fabs(k[i]) <= 0.5)) {
+      // Named here with its key; RangeImager::Check holds the factor over the image too.
+      if (!(std::fabs(k[i]) <= RangeImager::kMaxDepthCorrectionCoefficient)) {
         s.Fail("depth_correction", "coefficient " + std::to_string(i + 1) +
                                        " (a, b, c) must be within +-0.5, got " +
                                        std::to_string(k[i]));

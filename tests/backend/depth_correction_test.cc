@@ -206,23 +206,6 @@ TEST(DepthCorrectionTest, ACorrectionNoCalibrationAllowsIsRefused) {
   EXPECT_NE(why.find("frame " + std::to_string(far.frame_id)), std::string::npos) << why;
 }
 
-// The depth (z) of the plane n . p = offset through each pixel of `range`, read as the imager
-// with `correction` reads it: times the factor at the pixel.
-cv::Mat PlaneDepthRead(const RangeImager& range, const Eigen::Vector3d& n, double offset,
-                       const std::array<double, 3>& correction) {
-  cv::Mat depth(range.camera.height, range.camera.width, CV_32FC1, cv::Scalar(0.0f));
-  for (int y = 0; y < depth.rows; ++y) {
-    for (int x = 0; x < depth.cols; ++x) {
-      const Eigen::Vector3d ray = range.camera.Unproject(Eigen::Vector2d(x, y));  // z = 1
-      const double z = offset / n.dot(ray);
-      if (z > 0.0) {
-        depth.at<float>(y, x) = static_cast<float>(z * DepthCorrectionFactorAt(ray, correction));
-      }
-    }
-  }
-  return depth;
-}
-
 // The largest distances between two clouds' points and between their normals, over the
 // cells valid in both.
 struct CloudDifference {
@@ -248,7 +231,7 @@ TEST(DepthCorrectionTest, ACorrectedCloudIsTheSurfaceAsItIs) {
   const std::array<double, 3> correction = {-0.03, 0.02, 0.02};
   const Eigen::Vector3d n = Eigen::Vector3d(0.2, -0.1, -1.0).normalized();  // faces the camera
   const auto cloud = [&](const std::array<double, 3>& read_with) {
-    return MakeRangeCloud(PlaneDepthRead(range, n, -2.0, read_with), range,
+    return MakeRangeCloud(testing_core::PlaneDepth(range, n, -2.0, read_with), range,
                           Eigen::Isometry3d::Identity(), RangeCloudOptions(), "plane");
   };
   const RangeCloud truth = cloud({0.0, 0.0, 0.0});
@@ -309,7 +292,7 @@ TEST(DepthCorrectionTest, PointsWhereTheFactorIsNoCalibrationAreLeftOut) {
   const RangeImager range = testing_core::KinectRangeImager();
   const Eigen::Vector3d n(0.0, 0.0, -1.0);
   const RangeCloud read =
-      MakeRangeCloud(PlaneDepthRead(range, n, -2.0, {0.0, 0.0, 0.0}), range,
+      MakeRangeCloud(testing_core::PlaneDepth(range, n, -2.0, {0.0, 0.0, 0.0}), range,
                      Eigen::Isometry3d::Identity(), RangeCloudOptions(), "wall");
   // Factor 1 + 2 x: below 0.5 left of x = -0.25, above 2 right of x = 0.5 (the image spans
   // x within +-0.55).

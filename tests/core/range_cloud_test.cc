@@ -10,18 +10,7 @@
 namespace ieslam {
 namespace {
 
-// Depth (z) of the plane n . p = offset seen through each pixel; 0 where it is behind.
-cv::Mat PlaneDepth(const RangeImager& range, const Eigen::Vector3d& n, double offset) {
-  cv::Mat depth(range.camera.height, range.camera.width, CV_32FC1, cv::Scalar(0.0f));
-  for (int y = 0; y < depth.rows; ++y) {
-    for (int x = 0; x < depth.cols; ++x) {
-      const Eigen::Vector3d ray = range.camera.Unproject(Eigen::Vector2d(x, y));  // z = 1
-      const double z = offset / n.dot(ray);
-      if (z > 0.0) depth.at<float>(y, x) = static_cast<float>(z);
-    }
-  }
-  return depth;
-}
+using testing_core::PlaneDepth;
 
 TEST(RangeCloudTest, PlaneGivesItsPointsNormalsAndNoise) {
   const RangeImager range = testing_core::KinectRangeImager();
