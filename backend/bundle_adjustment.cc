@@ -414,36 +414,47 @@ double BundleAdjustmentRun::NormsAndGate(const std::vector<ceres::ResidualBlockI
 }
 
 double BundleAdjustmentRun::ReducedSystemDensity() const {
-  std::map<int, size_t> index;  // free poses, 0..n-1
+  // Free poses numbered 0..n-1, each observation's looked up once: a feature seen by k poses
+  // fills k(k-1)/2 blocks, and at a few hundred poses looking at one room that is millions of
+  // pairs per solve.
+  std::map<int, int> index;
   for (const auto& [frame_id, uses] : frame_uses_) {
-    if (frame_id != anchor_id_) index.emplace(frame_id, index.size());
+    if (frame_id != anchor_id_) index.emplace(frame_id, static_cast<int>(index.size()));
   }
-  const size_t n = index.size();
+  const int n = static_cast<int>(index.size());
   if (n < 2) return 1.0;
-  std::vector<char> filled(n * n, 0);
-  const auto fill = [&](int a, int b) {
-    const auto ia = index.find(a), ib = index.find(b);
-    if (ia == index.end() || ib == index.end() || ia->second == ib->second) return;
-    filled[std::min(ia->second, ib->second) * n + std::max(ia->second, ib->second)] = 1;
+  const auto index_of = [&index](int frame_id) {
+    const auto it = index.find(frame_id);
+    return it == index.end() ? -1 : it->second;
   };
-  std::map<int64_t, std::vector<int>> frames_of_feature;
+  std::vector<char> filled(static_cast<size_t>(n) * n, 0);
+  const auto fill = [&](int ia, int ib) {
+    if (ia < 0 || ib < 0 || ia == ib) return;
+    filled[static_cast<size_t>(std::min(ia, ib)) * n + std::max(ia, ib)] = 1;
+  };
+  std::vector<std::pair<int64_t, int>> seen;  // (feature, pose index) of each kept observation
   for (size_t k = 0; k < block_of_.size(); ++k) {
     if (block_of_[k] == nullptr) continue;
-    frames_of_feature[problem_.observations[k].observation.feature_id].push_back(
-        problem_.observations[k].frame_id);
+    seen.emplace_back(problem_.observations[k].observation.feature_id,
+                      index_of(problem_.observations[k].frame_id));
   }
-  for (const auto& [feature_id, frames] : frames_of_feature) {
-    for (size_t i = 0; i < frames.size(); ++i) {
-      for (size_t j = i + 1; j < frames.size(); ++j) fill(frames[i], frames[j]);
+  std::sort(seen.begin(), seen.end());
+  for (size_t first = 0; first < seen.size();) {
+    size_t last = first;
+    while (last < seen.size() && seen[last].first == seen[first].first) ++last;
+    for (size_t i = first; i < last; ++i) {
+      for (size_t j = i + 1; j < last; ++j) fill(seen[i].second, seen[j].second);
     }
+    first = last;
   }
   for (size_t k = 0; k < relative_block_.size(); ++k) {
     if (relative_block_[k] != nullptr) {
-      fill(problem_.relative_poses[k].frame_i, problem_.relative_poses[k].frame_j);
+      fill(index_of(problem_.relative_poses[k].frame_i),
+           index_of(problem_.relative_poses[k].frame_j));
     }
   }
   const size_t blocks = std::count(filled.begin(), filled.end(), 1);
-  return static_cast<double>(blocks) / (n * (n - 1) / 2);
+  return static_cast<double>(blocks) / (static_cast<double>(n) * (n - 1) / 2);
 }
 
 void BundleAdjustmentRun::ReleaseFrame(int frame_id) {

@@ -4,8 +4,12 @@
 #include <cmath>
 #include <iterator>
 #include <limits>
+#include <map>
 #include <memory>
 #include <random>
+#include <set>
+#include <utility>
+#include <vector>
 
 #include <ceres/autodiff_cost_function.h>
 #include <ceres/gradient_checker.h>
@@ -811,6 +815,25 @@ TEST(BundleAdjustmentTest, AutoSolverFollowsTheReducedSystemsFill) {
     } else {
       EXPECT_EQ(result.linear_solver, "SPARSE_SCHUR");
       EXPECT_LT(result.reduced_system_density, kDenseSchurMinDensity / 4);
+      // The filled blocks counted pair by pair: free poses that see a common point.
+      std::map<int64_t, std::vector<int>> seen_by;
+      for (const auto& [frame_id, observations] : scene.observations) {
+        if (frame_id == problem.AnchorFrameId()) continue;
+        for (const FeatureObservation& obs : observations) {
+          seen_by[obs.feature_id].push_back(frame_id);
+        }
+      }
+      std::set<std::pair<int, int>> filled;
+      for (const auto& [feature_id, frames] : seen_by) {
+        for (const int a : frames) {
+          for (const int b : frames) {
+            if (a < b) filled.emplace(a, b);
+          }
+        }
+      }
+      const double free_poses = num_poses - 1;
+      EXPECT_DOUBLE_EQ(result.reduced_system_density,
+                       filled.size() / (free_poses * (free_poses - 1) / 2));
     }
     EXPECT_LT(ErrorsToTruth(scene, result.T_w_c, result.p_w).max_translation_m, 1e-5);
   }
