@@ -414,9 +414,9 @@ double BundleAdjustmentRun::NormsAndGate(const std::vector<ceres::ResidualBlockI
 }
 
 double BundleAdjustmentRun::ReducedSystemDensity() const {
-  // Free poses numbered 0..n-1, each observation's looked up once: a feature seen by k poses
-  // fills k(k-1)/2 blocks, and at a few hundred poses looking at one room that is millions of
-  // pairs per solve.
+  // Free poses numbered 0..n-1. Each observation's pose is looked up once, not each pair's: a
+  // feature seen by k poses fills k(k-1)/2 blocks, millions per solve where a few hundred poses
+  // look at one room.
   std::map<int, int> index;
   for (const auto& [frame_id, uses] : frame_uses_) {
     if (frame_id != anchor_id_) index.emplace(frame_id, static_cast<int>(index.size()));

@@ -815,11 +815,17 @@ TEST(BundleAdjustmentTest, AutoSolverFollowsTheReducedSystemsFill) {
     } else {
       EXPECT_EQ(result.linear_solver, "SPARSE_SCHUR");
       EXPECT_LT(result.reduced_system_density, kDenseSchurMinDensity / 4);
-      // The filled blocks counted pair by pair: free poses that see a common point.
+      // The filled blocks counted pair by pair: free poses that see a common point through an
+      // observation the solve kept.
+      std::set<std::pair<int, int64_t>> rejected;
+      for (const BundleAdjustmentObservation& o : result.rejected) {
+        rejected.emplace(o.frame_id, o.observation.feature_id);
+      }
       std::map<int64_t, std::vector<int>> seen_by;
       for (const auto& [frame_id, observations] : scene.observations) {
         if (frame_id == problem.AnchorFrameId()) continue;
         for (const FeatureObservation& obs : observations) {
+          if (rejected.count({frame_id, obs.feature_id}) > 0) continue;
           seen_by[obs.feature_id].push_back(frame_id);
         }
       }
