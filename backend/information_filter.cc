@@ -237,12 +237,9 @@ std::vector<PendingFeature> InformationFilter::PendingFeatures() const {
 Eigen::Vector3d InformationFilter::LinearisationPoint(const Vector6d& T_w_c,
                                                       const FeatureObservation& obs) const {
   if (HasFeature(obs.feature_id)) return FeatureEstimate(obs.feature_id);
-  const std::vector<FeatureSighting>* sightings = PendingSightings(obs.feature_id);
-  if (sightings == nullptr) return ObservationToWorld(T_w_c, obs.z, camera_);
   // The earliest pose has been estimated longest; the candidate's is only registered.
-  const FeatureSighting& first = sightings->front();
-  return ObservationToWorld(state_.segment<6>(pose_offset_.at(first.frame_id)), first.observation.z,
-                            camera_);
+  if (IsPending(obs.feature_id)) return MapFeature(obs.feature_id);
+  return ObservationToWorld(T_w_c, obs.z, camera_);
 }
 
 bool InformationFilter::LinearizeObservation(const Vector6d& T_w_c, const FeatureObservation& obs,
@@ -298,11 +295,12 @@ void InformationFilter::LinearizeEarlierSightings(int frame_id,
 
 InformationFilter::Linearization InformationFilter::Linearize(
     int frame_id, const Vector6d& T_w_c, const std::vector<FeatureObservation>& observations,
-    int max_new_features) const {
+    int max_first_sightings) const {
   ValidateObservations(frame_id, observations);
   Linearization lin;
   lin.T_w_c = T_w_c;
   std::vector<Linearization::Block> new_blocks;
+  int first_sightings = 0;
   for (const FeatureObservation& obs : observations) {
     Linearization::Block block;
     block.feature_id = obs.feature_id;
@@ -312,7 +310,10 @@ InformationFilter::Linearization InformationFilter::Linearize(
       lin.deferred.push_back(obs);
       continue;
     }
-    if (block.is_new && static_cast<int>(new_blocks.size()) >= max_new_features) continue;
+    if (block.is_new && PendingSightings(obs.feature_id) == nullptr &&
+        first_sightings++ >= max_first_sightings) {
+      continue;
+    }
     ObservationJacobians jacobians;
     if (!LinearizeObservation(T_w_c, obs, &jacobians)) {
       std::ostringstream msg;
@@ -663,12 +664,14 @@ Matrix6d InformationFilter::PoseCovariance(int frame_id) const {
 
 double InformationFilter::LogDetExpandedInformation(
     const Vector6d& T_w_c_candidate, const std::vector<FeatureObservation>& observations,
-    int num_new_features_to_count) const {
-  const int max_new = num_new_features_to_count < 0 ? INT_MAX : num_new_features_to_count;
-  const Linearization lin = Linearize(-1, T_w_c_candidate, observations, max_new);
-  CHECK(num_new_features_to_count < 0 || lin.num_new == num_new_features_to_count)
-      << "the candidate has " << lin.num_new << " entering features, asked to count "
-      << num_new_features_to_count;
+    int num_first_sightings_to_count) const {
+  const int max_first = num_first_sightings_to_count < 0 ? INT_MAX : num_first_sightings_to_count;
+  const Linearization lin = Linearize(-1, T_w_c_candidate, observations, max_first);
+  const int entering_first = lin.num_new - lin.num_tied;
+  CHECK(num_first_sightings_to_count < 0 || options_.min_sightings > 1 ||
+        entering_first == num_first_sightings_to_count)
+      << "the candidate has " << entering_first << " first sightings, asked to count "
+      << num_first_sightings_to_count;
   UpperColumnStorage expanded = matrix_;
   AppendToMatrix(lin, 0.0, &expanded);
   SparseCholesky cholesky({options_.ordering});  // no spare slots: one factorisation

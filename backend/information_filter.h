@@ -129,7 +129,8 @@ struct VariableRef {
 
 // The joint marginal covariance of a set of features, recovered once from the factor and
 // then shared by every candidate of a look-ahead buffer; with delayed initialisation also of
-// the poses that saw the pending features a candidate would bring into the state.
+// the poses that saw the pending features a candidate would bring into the state, and of
+// the pending features themselves (InformationFilter::JointFeatureCovariance).
 struct FeatureCovariance {
   std::vector<int64_t> feature_ids;
   std::unordered_map<int64_t, int> index;  // feature id -> position in feature_ids
@@ -180,13 +181,17 @@ struct WithdrawalStatistics {
 // in the map, log det(I + P_SS (A - B C^-1 B^T)). The first two are nearly the same for every
 // candidate of a buffer under the equal-dimension rule; the map term is what sets them apart.
 //
-// With delayed initialisation the pending features count as the map's: the terms are those
-// of the filter that would have held them since their first sightings (the gain of that
-// filter is this one's less the entering features' first sightings' own blocks, which it
-// holds already). So new_features holds those blocks (and, at min_sightings 1, the new
-// features' own blocks), pose is log det of the pose's information from the known and the
-// entering features, and map the rest: what the candidate tells about the features and
-// poses the filter holds or has seen, which is what the selector's threshold is about.
+// The terms are always those of the filter that holds every feature from its first sighting
+// (min_sightings 1), and total() is that filter's gain: with delayed initialisation the
+// pending features count as the map's, and a feature the candidate is the first to see adds
+// its own block although it waits aside. So the selector ranks the same candidates the same
+// way whether features enter at their first sighting or their second; delayed
+// initialisation changes what the state holds, not which frames enter it. (This filter's own
+// gain, which InformationGain returns, differs from total() by the entering features' first
+// sightings' own blocks, which it gains now, less the waiting features' own blocks.) pose is
+// log det of the pose's information from the known and the pending features, and map what
+// the candidate tells about the features and poses the filter holds or has seen, which is
+// what the selector's threshold is about.
 struct GainTerms {
   double new_features = 0.0;
   double pose = 0.0;
@@ -331,36 +336,46 @@ class InformationFilter {
   Eigen::MatrixXd MarginalCovariance(const std::vector<VariableRef>& variables) const;
 
   // --- Information gain for the frame selector (§V-A; backend/information_filter_gain.cc). ---
-  // Joint covariance of the known features among `feature_ids` (unknown ids are skipped) and
-  // of the poses of `frame_ids` (which must be in the filter).
+  // Joint covariance of the known and the pending features among `feature_ids` (others are
+  // skipped) and of the poses of `frame_ids` (which must be in the filter). A pending
+  // feature's is what the filter holding it since its first sighting would have: that
+  // sighting, with its Q, back-projected from its pose (MapFeature), whose block is added to
+  // frame_ids. The known features come first, then the pending ones.
   FeatureCovariance JointFeatureCovariance(const std::vector<int64_t>& feature_ids,
                                            const std::vector<int>& frame_ids = {}) const;
+  // A known feature's estimate, or a pending one's first sighting back-projected from that
+  // pose's estimate (where the filter holding it since would have it, to first order).
+  Eigen::Vector3d MapFeature(int64_t feature_id) const;
   // Features among `observations` not yet in the state (new or pending).
   int CountNewFeatures(const std::vector<FeatureObservation>& observations) const;
   // Features that adding a pose with `observations` brings into the state: the new ones
   // (min_sightings 1), or the pending ones this sighting completes.
   int CountEnteringFeatures(const std::vector<FeatureObservation>& observations) const;
+  // Features among `observations` that no pose has seen (neither known nor pending).
+  int CountFirstSightings(const std::vector<FeatureObservation>& observations) const;
   // The frames whose earlier sightings of those entering features join them: the poses
   // whose covariance InformationGain needs in `known`, ascending.
   std::vector<int> EarlierSightingFrames(const std::vector<FeatureObservation>& observations) const;
   // log det I(k+1) - log det I(k) for adding a pose at T_w_c_candidate with these
-  // observations, counting only the first num_new_features_to_count entering features (the
-  // equal-dimension rule on the state's new dimensions; a negative value counts all); the
-  // sightings that stay pending add nothing. `known` must cover every known feature
-  // observed, and the earlier sightings' poses of the counted entering features. Returns
+  // observations, counting only the first num_first_sightings_to_count features that no pose
+  // has seen (CountFirstSightings; the equal-dimension rule: at min_sightings 1 they are the
+  // state's new dimensions; a negative value counts all), and every pending feature the
+  // candidate brings in; the first sightings that stay pending add nothing to it, and their
+  // own blocks to `terms` (GainTerms). `known` must cover every known feature observed, and
+  // the earlier sightings' poses of the entering pending features. Returns
   // -infinity when the observations cannot be linearised (one is malformed, as
   // ValidateObservations says, or a feature lies within min_depth_m of the camera's plane
   // or behind it) or cannot determine the pose.
   double InformationGain(const Vector6d& T_w_c_candidate,
                          const std::vector<FeatureObservation>& observations,
-                         int num_new_features_to_count, const FeatureCovariance& known,
+                         int num_first_sightings_to_count, const FeatureCovariance& known,
                          GainTerms* terms = nullptr) const;
   // The paper's way: log det of the explicitly expanded information matrix (with the same
   // counting rule), by a sparse factorisation of the whole expanded matrix. For checks and
   // for timing comparisons; -infinity when it is not positive definite.
   double LogDetExpandedInformation(const Vector6d& T_w_c_candidate,
                                    const std::vector<FeatureObservation>& observations,
-                                   int num_new_features_to_count) const;
+                                   int num_first_sightings_to_count) const;
 
   const InformationFilterTimings& last_timings() const { return timings_; }
   int64_t FactorNonzeros() const;
@@ -400,11 +415,12 @@ class InformationFilter {
                             ObservationJacobians* jacobians) const;
   bool LinearizeAt(const Vector6d& T_w_c, const Eigen::Vector3d& p_w,
                    ObservationJacobians* jacobians) const;
-  // Jacobians at the current estimate (new pose and new features at their initial values).
-  // Throws DataError naming the frame when an observation cannot be linearised.
+  // Jacobians at the current estimate (new pose and new features at their initial values),
+  // of at most max_first_sightings features that no pose has seen. Throws DataError naming
+  // the frame when an observation cannot be linearised.
   Linearization Linearize(int frame_id, const Vector6d& T_w_c,
                           const std::vector<FeatureObservation>& observations,
-                          int max_new_features) const;
+                          int max_first_sightings) const;
   // Appends the new features' and the pose's columns and adds to the re-observed features'
   // diagonal blocks. `pose_prior` is added to the pose's diagonal block (the anchor).
   void AppendToMatrix(const Linearization& lin, double pose_prior,

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <unordered_set>
 #include <vector>
 
 #include <glog/logging.h>
@@ -134,10 +135,11 @@ struct GainBlocks {
   Matrix6d C = Matrix6d::Zero();
   std::vector<int> in_known;  // block of each of S in known.covariance
   double new_features_term = 0.0;
-  // The terms as the filter holding the pending features since their first sightings sees
-  // them (GainTerms): their first sightings' own blocks, and the pose's information with
-  // them known.
-  double first_sightings_term = 0.0, lone_terms = 0.0;
+  // The terms as the filter holding every feature since its first sighting sees them
+  // (GainTerms): the entering pending features' first sightings' own blocks (which that
+  // filter holds already), the own blocks of the features entering at their first sighting
+  // and of those that wait aside, and the pose's information with the pending ones known.
+  double first_sightings_term = 0.0, lone_terms = 0.0, waiting_terms = 0.0;
   Matrix6d C_with_pending = Matrix6d::Zero();
 };
 
@@ -159,15 +161,63 @@ double CombineGain(const GainBlocks& b, const FeatureCovariance& known, GainTerm
   const double gain = b.new_features_term + log_det_C + map_term;
   if (terms == nullptr) return gain;
   if (b.sightings.empty()) {
-    *terms = {b.new_features_term, log_det_C, map_term};
+    *terms = {b.new_features_term + b.waiting_terms, log_det_C, map_term};
     return gain;
   }
   const double pose_term = LogDetSpd(b.C_with_pending);
   if (!std::isfinite(pose_term)) return kMinusInfinity;
-  terms->new_features = b.lone_terms + b.first_sightings_term;
+  terms->new_features = b.lone_terms + b.waiting_terms;
   terms->pose = pose_term;
-  terms->map = gain - terms->new_features - pose_term;
+  terms->map = gain - (b.lone_terms + b.first_sightings_term) - pose_term;
   return gain;
+}
+
+}  // namespace
+
+namespace {
+
+// A pending feature p = g(x, z) of its first sighting z from pose x, linearised there:
+// h(x, p) = z gives dp = J_f^-1 dz - J_f^-1 J_p dx, so p's covariance is G_x P_xx G_x^T +
+// G_z Q G_z^T and its covariance with any other variable v is G_x P_xv.
+struct PendingPlacement {
+  int64_t id = -1;
+  int frame = -1;
+  Matrix36d G_x = Matrix36d::Zero();
+  Eigen::Matrix3d noise = Eigen::Matrix3d::Zero();  // G_z Q G_z^T
+};
+
+// The covariance of [known features; pending features; poses] from M, that of [known features
+// (nk rows); poses], where pose_row is each pose's row in the result.
+Eigen::MatrixXd WithPendingFeatures(const Eigen::MatrixXd& M, int nk,
+                                    const std::vector<PendingPlacement>& pending,
+                                    const std::unordered_map<int, int>& pose_row) {
+  const int np = 3 * static_cast<int>(pending.size());
+  const int nx = static_cast<int>(M.rows()) - nk;
+  const auto row_in_M = [&](int frame) { return pose_row.at(frame) - np; };
+  Eigen::MatrixXd C(nk + np + nx, nk + np + nx);
+  C.topLeftCorner(nk, nk) = M.topLeftCorner(nk, nk);
+  C.topRightCorner(nk, nx) = M.topRightCorner(nk, nx);
+  C.bottomLeftCorner(nx, nk) = M.bottomLeftCorner(nx, nk);
+  C.bottomRightCorner(nx, nx) = M.bottomRightCorner(nx, nx);
+  // Each pending feature's rows: G_x times its pose's rows of M.
+  Eigen::MatrixXd R(np, M.cols());
+  for (size_t j = 0; j < pending.size(); ++j) {
+    R.middleRows<3>(3 * j).noalias() = pending[j].G_x * M.middleRows<6>(row_in_M(pending[j].frame));
+  }
+  C.block(nk, 0, np, nk) = R.leftCols(nk);
+  C.block(nk, nk + np, np, nx) = R.rightCols(nx);
+  C.block(0, nk, nk, np) = C.block(nk, 0, np, nk).transpose();
+  C.block(nk + np, nk, nx, np) = C.block(nk, nk + np, np, nx).transpose();
+  for (size_t i = 0; i < pending.size(); ++i) {
+    for (size_t j = 0; j <= i; ++j) {
+      Eigen::Matrix3d block =
+          R.block<3, 6>(3 * i, row_in_M(pending[j].frame)) * pending[j].G_x.transpose();
+      if (i == j) block += pending[i].noise;
+      C.block<3, 3>(nk + 3 * i, nk + 3 * j) = block;
+      C.block<3, 3>(nk + 3 * j, nk + 3 * i) = block.transpose();
+    }
+  }
+  return C;
 }
 
 }  // namespace
@@ -176,22 +226,77 @@ FeatureCovariance InformationFilter::JointFeatureCovariance(
     const std::vector<int64_t>& feature_ids, const std::vector<int>& frame_ids) const {
   FeatureCovariance result;
   std::vector<VariableRef> variables;
+  std::vector<PendingPlacement> pending;
+  std::unordered_set<int64_t> placed;
   for (const int64_t id : feature_ids) {
-    if (!HasFeature(id) || result.index.count(id) > 0) continue;
-    result.index[id] = static_cast<int>(result.feature_ids.size());
-    result.feature_ids.push_back(id);
-    variables.push_back(VariableRef::Feature(id));
+    if (result.index.count(id) > 0 || placed.count(id) > 0) continue;
+    if (HasFeature(id)) {
+      result.index[id] = static_cast<int>(result.feature_ids.size());
+      result.feature_ids.push_back(id);
+      variables.push_back(VariableRef::Feature(id));
+      continue;
+    }
+    const std::vector<FeatureSighting>* sightings = PendingSightings(id);
+    if (sightings == nullptr) continue;
+    const FeatureSighting& first = sightings->front();
+    const Vector6d T_w_c = state_.segment<6>(pose_offset_.at(first.frame_id));
+    ObservationJacobians jacobians;
+    if (!LinearizeAt(T_w_c, MapFeature(id), &jacobians)) continue;
+    const Eigen::Matrix3d J_f_inverse = jacobians.J_f.inverse();
+    if (!J_f_inverse.allFinite()) continue;
+    PendingPlacement p;
+    p.id = id;
+    p.frame = first.frame_id;
+    p.G_x = -J_f_inverse * jacobians.J_p;
+    p.noise = J_f_inverse * first.observation.Q * J_f_inverse.transpose();
+    pending.push_back(p);
+    placed.insert(id);
   }
+  const int num_known = static_cast<int>(result.feature_ids.size());
+  for (const PendingPlacement& p : pending) {
+    result.index[p.id] = static_cast<int>(result.feature_ids.size());
+    result.feature_ids.push_back(p.id);
+  }
+  std::vector<int> frames = frame_ids;
+  for (const PendingPlacement& p : pending) frames.push_back(p.frame);
   int row = 3 * static_cast<int>(result.feature_ids.size());
-  for (const int frame : frame_ids) {
+  for (const int frame : frames) {
     if (result.pose_row.count(frame) > 0) continue;
     result.pose_row[frame] = row;
     row += 6;
     result.frame_ids.push_back(frame);
     variables.push_back(VariableRef::Pose(frame));
   }
-  result.covariance = variables.empty() ? Eigen::MatrixXd(0, 0) : MarginalCovariance(variables);
+  if (variables.empty()) {
+    result.covariance = Eigen::MatrixXd(0, 0);
+    return result;
+  }
+  // The known features and the poses, as MarginalCovariance orders them.
+  const Eigen::MatrixXd M = MarginalCovariance(variables);
+  if (pending.empty()) {
+    result.covariance = M;
+    return result;
+  }
+  result.covariance = WithPendingFeatures(M, 3 * num_known, pending, result.pose_row);
   return result;
+}
+
+Eigen::Vector3d InformationFilter::MapFeature(int64_t feature_id) const {
+  if (HasFeature(feature_id)) return feature(feature_id);
+  const std::vector<FeatureSighting>* sightings = PendingSightings(feature_id);
+  CHECK(sightings != nullptr) << "feature " << feature_id << " is neither known nor pending";
+  const FeatureSighting& first = sightings->front();
+  return ObservationToWorld(state_.segment<6>(pose_offset_.at(first.frame_id)), first.observation.z,
+                            camera_);
+}
+
+int InformationFilter::CountFirstSightings(
+    const std::vector<FeatureObservation>& observations) const {
+  int count = 0;
+  for (const FeatureObservation& obs : observations) {
+    count += HasFeature(obs.feature_id) || IsPending(obs.feature_id) ? 0 : 1;
+  }
+  return count;
 }
 
 int InformationFilter::CountNewFeatures(const std::vector<FeatureObservation>& observations) const {
@@ -248,35 +353,39 @@ bool InformationFilter::WhitenedEarlierSightings(const std::vector<FeatureSighti
 // eliminated (MapTerm). A feature entering at its first sighting couples to the pose only
 // through a block that cancels when it is marginalised, hence its lone term
 // log det(J_f^T W J_f); one entering on a later sighting ties its earlier poses to the new one.
-// A sighting that leaves its feature pending adds nothing to the state.
+// A first sighting that leaves its feature pending adds nothing to the state, and its lone
+// term to the terms (GainTerms).
 double InformationFilter::InformationGain(const Vector6d& T_w_c_candidate,
                                           const std::vector<FeatureObservation>& observations,
-                                          int num_new_features_to_count,
+                                          int num_first_sightings_to_count,
                                           const FeatureCovariance& known, GainTerms* terms) const {
   CheckRecovered();
   if (!ObservationsProblem(-1, observations).empty()) return kMinusInfinity;
   GainBlocks b;
-  int num_counted = 0;
+  int num_first = 0;
   for (const FeatureObservation& obs : observations) {
     const bool is_new = !HasFeature(obs.feature_id);
-    if (is_new && !Enters(obs.feature_id)) continue;
-    if (is_new && num_new_features_to_count >= 0 && num_counted >= num_new_features_to_count) {
+    const std::vector<FeatureSighting>* earlier =
+        is_new ? PendingSightings(obs.feature_id) : nullptr;
+    if (is_new && earlier == nullptr) {
+      if (num_first_sightings_to_count >= 0 && num_first >= num_first_sightings_to_count) {
+        continue;
+      }
+      ++num_first;
+      ObservationJacobians jacobians;
+      if (!LinearizeObservation(T_w_c_candidate, obs, &jacobians)) return kMinusInfinity;
+      const double lone = LogDetSpd(jacobians.J_f.transpose() * obs.Q.inverse() * jacobians.J_f);
+      const bool enters = Enters(obs.feature_id);
+      (enters ? b.lone_terms : b.waiting_terms) += lone;
+      if (enters) b.new_features_term += lone;
       continue;
     }
+    if (is_new && !Enters(obs.feature_id)) continue;
     ObservationJacobians jacobians;
     if (!LinearizeObservation(T_w_c_candidate, obs, &jacobians)) return kMinusInfinity;
     const Matrix36d& J_p = jacobians.J_p;
     const Eigen::Matrix3d& J_f = jacobians.J_f;
     const Eigen::Matrix3d W = obs.Q.inverse();
-    const std::vector<FeatureSighting>* earlier =
-        is_new ? PendingSightings(obs.feature_id) : nullptr;
-    if (is_new && earlier == nullptr) {
-      const double lone = LogDetSpd(J_f.transpose() * W * J_f);
-      b.new_features_term += lone;
-      b.lone_terms += lone;
-      ++num_counted;
-      continue;
-    }
     if (is_new) {
       const int k = static_cast<int>(earlier->size());
       Eigen::MatrixXd J_f_all, J_c;
@@ -304,7 +413,6 @@ double InformationFilter::InformationGain(const Vector6d& T_w_c_candidate,
       b.new_features_term += log_det_F;
       b.C += columns.H * columns.H.transpose();
       b.sightings.push_back(std::move(columns));
-      ++num_counted;
       continue;
     }
     const auto it = known.index.find(obs.feature_id);
@@ -319,9 +427,9 @@ double InformationFilter::InformationGain(const Vector6d& T_w_c_candidate,
     b.C += C_s;
     b.C_with_pending += C_s;
   }
-  CHECK(num_new_features_to_count < 0 || num_counted == num_new_features_to_count)
-      << "the candidate has " << num_counted << " entering features, asked to count "
-      << num_new_features_to_count;
+  CHECK(num_first_sightings_to_count < 0 || num_first == num_first_sightings_to_count)
+      << "the candidate has " << num_first << " first sightings, asked to count "
+      << num_first_sightings_to_count;
 
   return CombineGain(b, known, terms);
 }

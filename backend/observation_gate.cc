@@ -24,7 +24,8 @@ constexpr double kConverged = 1e-8;  // metres and radians: far below any sigma
 // Below it the observations do not determine the pose (see PoseStep).
 constexpr double kMinNormalisedEigenvalue = 1e-9;
 
-// One observation of a known feature at the current pose.
+// One observation of a map feature (known, or pending with its covariance in `known`) at the
+// current pose.
 struct Term {
   int input = -1;      // index into the observations
   int block = -1;      // the feature's block in `known`
@@ -41,7 +42,7 @@ void Linearize(const InformationFilter& filter, const Vector6d& T_w_c,
                std::vector<Term>* terms) {
   for (Term& t : *terms) {
     const FeatureObservation& obs = observations[t.input];
-    const Eigen::Vector3d p_w = filter.feature(obs.feature_id);
+    const Eigen::Vector3d p_w = filter.MapFeature(obs.feature_id);
     t.valid = WorldToCamera(T_w_c, p_w).z() > filter.options().min_depth_m;
     if (!t.valid) continue;
     t.r = obs.z - PredictObservation(T_w_c, p_w, filter.camera(), &t.J_x, &t.J_f);
@@ -291,8 +292,12 @@ GatedObservations GateObservations(const InformationFilter& filter, const Vector
   const InformationFilterOptions& options = filter.options();
   std::vector<Term> terms;
   for (size_t i = 0; i < observations.size(); ++i) {
-    if (!filter.HasFeature(observations[i].feature_id)) continue;
     const auto it = known.index.find(observations[i].feature_id);
+    if (!filter.HasFeature(observations[i].feature_id)) {
+      // A pending feature is tested where `known` holds it, as the filter holding it since its
+      // first sighting would test it; a feature no pose has seen cannot be.
+      if (it == known.index.end() || !filter.IsPending(observations[i].feature_id)) continue;
+    }
     CHECK(it != known.index.end())
         << "feature " << observations[i].feature_id << " is missing from the FeatureCovariance";
     Term t;

@@ -10,8 +10,11 @@
 // IEEE T-RA 2001): single gates pass sets whose errors agree with one another but not with
 // the map. A set that fails it first has its Q scaled by its variance factor (NIS per degree
 // of freedom: the innovations' own estimate of the frame's noise, adapt_noise) and is gated
-// again; then the worst observations are dropped until the set passes. Observations of new
-// features have no prediction and pass untested (their Q is scaled with the frame's).
+// again; then the worst observations are dropped until the set passes. With delayed
+// initialisation a pending feature is a map feature here as well, through its first sighting
+// (InformationFilter::JointFeatureCovariance): the gate then keeps what it would keep with
+// every feature in the state. Observations of features no pose has seen have no prediction
+// and pass untested (their Q is scaled with the frame's).
 #pragma once
 
 #include <vector>
@@ -25,7 +28,7 @@ namespace ieslam {
 // Counts over one frame, or summed over a run.
 struct GateStatistics {
   int frames = 0;
-  int tested = 0;                    // observations of known features
+  int tested = 0;                    // observations of map features (known or pending)
   int rejected = 0;                  // by any test (single, joint, or not linearisable)
   int rejected_joint = 0;            // of `rejected`, by the joint test
   int incompatible_frames = 0;       // frames whose set still failed the joint test
@@ -48,7 +51,8 @@ struct GatedObservations {
 
 // Gates `observations` of a frame whose pose is near T_w_c_initial, with the filter's
 // options (gate_chi2: 0 keeps every observation; joint_compatibility). `known` must cover
-// every known feature observed (InformationFilter::JointFeatureCovariance). `joint` false
+// every known feature observed (InformationFilter::JointFeatureCovariance); the pending ones
+// it covers are tested too. `joint` false
 // skips the joint test (for scoring many candidates).
 GatedObservations GateObservations(const InformationFilter& filter, const Vector6d& T_w_c_initial,
                                    const std::vector<FeatureObservation>& observations,

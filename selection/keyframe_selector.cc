@@ -221,11 +221,11 @@ class Run {
            (filter_->IsPending(feature_id) && filter_->Enters(feature_id));
   }
 
-  // Scores a buffer: total gains and map terms, with the equal-dimension rule for the
-  // features that would enter the state (new ones; with delayed initialisation, the pending
-  // ones a candidate sees again, while the sightings that leave a feature pending add
-  // nothing), and equal measurements of the map's features (known ones, and pending ones
-  // a candidate would bring in): every candidate is scored on its observations of those
+  // Scores a buffer: total gains and map terms of the filter holding every feature from its
+  // first sighting (GainTerms: delayed initialisation changes the state, not the choice),
+  // with the equal-dimension rule for the features no pose has seen, and equal measurements
+  // of the map's features (known ones, and pending ones a candidate would bring in), gated as
+  // that filter would gate them: every candidate is scored on its observations of those
   // that all candidates of the buffer observe. Scored on all their observations, candidates
   // nearer the base frames win by counting more matches (at 30 Hz the next frame always
   // would); on the same features, the gain measures what the candidate's viewpoint adds. With
@@ -248,7 +248,7 @@ class Run {
     }
     const bool equal_measurements = static_cast<int>(common.size()) >= options_.min_common_features;
     std::vector<std::vector<FeatureObservation>> scored(buffer.size());
-    int min_new = std::numeric_limits<int>::max();
+    int min_first = std::numeric_limits<int>::max();
     std::vector<int> earlier_frames;  // poses whose sightings the entering features join
     for (size_t k = 0; k < buffer.size(); ++k) {
       for (const FeatureObservation& obs : buffer[k].observations) {
@@ -257,7 +257,7 @@ class Run {
           scored[k].push_back(obs);
         }
       }
-      min_new = std::min(min_new, filter_->CountEnteringFeatures(scored[k]));
+      min_first = std::min(min_first, filter_->CountFirstSightings(scored[k]));
       const std::vector<int> frames = filter_->EarlierSightingFrames(scored[k]);
       earlier_frames.insert(earlier_frames.end(), frames.begin(), frames.end());
     }
@@ -268,7 +268,6 @@ class Run {
     for (const auto& ids : seen) all_seen.insert(all_seen.end(), ids.begin(), ids.end());
     std::sort(all_seen.begin(), all_seen.end());
     all_seen.erase(std::unique(all_seen.begin(), all_seen.end()), all_seen.end());
-    // (Pending ids are skipped: the features' covariance is of the known ones.)
     const FeatureCovariance covariance =
         filter_->JointFeatureCovariance(equal_measurements ? common : all_seen, earlier_frames);
     for (size_t k = 0; k < buffer.size(); ++k) {
@@ -287,9 +286,9 @@ class Run {
       GainTerms terms;
       // -infinity when a feature lies behind the candidate's camera: the registration is
       // wrong, and the candidate not scorable.
-      const double gain = filter_->InformationGain(T_w_c, scored[k], min_new, covariance, &terms);
+      const double gain = filter_->InformationGain(T_w_c, scored[k], min_first, covariance, &terms);
       decision->candidates.push_back(c.frame);
-      decision->gains.push_back(gain);
+      decision->gains.push_back(std::isfinite(gain) ? terms.total() : gain);
       decision->map_gains.push_back(std::isfinite(gain) ? terms.map : gain);
     }
     decision->scored_features = equal_measurements ? static_cast<int>(common.size()) : -1;

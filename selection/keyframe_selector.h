@@ -61,7 +61,7 @@ struct SelectorOptions {
 // One decision of the selector, for reports and the paper's Figs. 7 and 12.
 struct SelectionDecision {
   std::vector<int> candidates;
-  std::vector<double> gains;      // total gain (nats) per candidate; -inf: not scorable
+  std::vector<double> gains;      // GainTerms::total() (nats) per candidate; -inf: not scorable
   std::vector<double> map_gains;  // the map term per candidate
   std::vector<int> added;         // frames added to the filter by this decision
   int scored_features = -1;       // known features all candidates were scored on (-1: own)

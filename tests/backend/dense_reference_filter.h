@@ -63,11 +63,12 @@ class DenseReferenceFilter {
     return result;
   }
 
-  // The paper's gain: log det of the explicitly expanded matrix, the candidate's first
-  // `num_new` entering features counted (with their earlier sightings); sightings that leave
-  // a feature pending add nothing.
+  // The paper's gain: log det of the explicitly expanded matrix, of the candidate's features
+  // that no pose has seen the first `num_first` counted (a negative value counts all), and
+  // every pending feature it brings in (with its earlier sightings); sightings that leave a
+  // feature pending add nothing.
   double LogDetExpanded(const Vector6d& T_w_c, const std::vector<FeatureObservation>& observations,
-                        int num_new) const {
+                        int num_first) const {
     Eigen::MatrixXd I = I_;
     Eigen::VectorXd X = X_;
     std::map<int64_t, int> features = features_;
@@ -75,8 +76,11 @@ class DenseReferenceFilter {
     int counted = 0;
     for (const FeatureObservation& obs : observations) {
       if (features.count(obs.feature_id) == 0) {
-        if (!Enters(obs.feature_id) || counted == num_new) continue;
-        ++counted;
+        if (!Enters(obs.feature_id)) continue;
+        if (Sightings(obs.feature_id).empty()) {
+          if (counted == num_first) continue;
+          ++counted;
+        }
         features[obs.feature_id] = Grow(&I, &X, InitialPoint(X, T_w_c, obs));
         for (const auto& [frame, earlier] : Sightings(obs.feature_id)) {
           Eigen::MatrixXd H;

@@ -102,6 +102,53 @@ TEST(ObservationGateTest, RejectsAPlantedWrongAssociationAndKeepsTheRightOnes) {
   EXPECT_GT((f.initial - reference.T_w_c).norm(), 1e-3);
 }
 
+// With delayed initialisation a feature seen by one pose is pending, out of the state; the
+// gate tests it through its first sighting as the filter holding every feature would
+// (InformationFilter::JointFeatureCovariance): a wrong association on a pending feature is
+// rejected, and both filters keep the same observations at the same fitted pose.
+TEST(ObservationGateTest, TestsPendingFeaturesAsTheFilterHoldingThemWould) {
+  InformationFilterOptions delayed = GatedOptions();
+  delayed.min_sightings = 2;
+  GateFixture at_once(GatedOptions()), f(delayed);
+  std::vector<size_t> pending;
+  for (size_t i = 0; i < f.observations.size(); ++i) {
+    if (f.filter.IsPending(f.observations[i].feature_id)) pending.push_back(i);
+  }
+  ASSERT_GE(pending.size(), 2u);
+  // Pending feature a is given the measurement of a map feature c far from it in the image.
+  const size_t a = pending[0];
+  size_t c = a;
+  for (const size_t k : at_once.KnownIndices()) {
+    if ((f.observations[k].z.head<2>() - f.observations[a].z.head<2>()).norm() > 60.0) {
+      c = k;
+      break;
+    }
+  }
+  ASSERT_NE(c, a);
+  f.observations[a].z = f.observations[c].z;
+  at_once.observations[a].z = at_once.observations[c].z;
+  std::vector<int64_t> ids;
+  for (const FeatureObservation& o : f.observations) ids.push_back(o.feature_id);
+  const FeatureCovariance known = f.filter.JointFeatureCovariance(ids);
+  ASSERT_EQ(known.feature_ids.size(), at_once.known.feature_ids.size());
+
+  const GatedObservations gated =
+      GateObservations(f.filter, f.initial, f.observations, known, /*joint=*/true);
+  const GatedObservations reference = GateObservations(
+      at_once.filter, at_once.initial, at_once.observations, at_once.known, /*joint=*/true);
+  EXPECT_FALSE(Contains(gated.observations, f.observations[a].feature_id));
+  EXPECT_TRUE(Contains(gated.observations, f.observations[pending[1]].feature_id));
+  EXPECT_EQ(gated.stats.tested, reference.stats.tested);
+  EXPECT_EQ(gated.stats.rejected, reference.stats.rejected);
+  ASSERT_EQ(gated.observations.size(), reference.observations.size());
+  for (size_t i = 0; i < gated.observations.size(); ++i) {
+    EXPECT_EQ(gated.observations[i].feature_id, reference.observations[i].feature_id);
+  }
+  EXPECT_DOUBLE_EQ(gated.noise_scale, reference.noise_scale);
+  ASSERT_TRUE(gated.pose_fitted && reference.pose_fitted);
+  EXPECT_LT((gated.T_w_c - reference.T_w_c).norm(), 1e-5);
+}
+
 TEST(ObservationGateTest, OffKeepsEveryObservation) {
   InformationFilterOptions options;
   options.gate_chi2 = 0.0;

@@ -323,7 +323,7 @@ void BM_InformationGainPerCandidate_Corridor(benchmark::State& state) {
   const FeatureCovariance covariance = filter.JointFeatureCovariance(known);
   const double covariance_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-  const int new_features = filter.CountNewFeatures(candidate);
+  const int new_features = filter.CountFirstSightings(candidate);
   for (auto _ : state) {
     benchmark::DoNotOptimize(
         filter.InformationGain(problem.poses[poses], candidate, new_features, covariance));
