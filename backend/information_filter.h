@@ -100,10 +100,13 @@ struct InformationFilterOptions {
   bool adapt_noise = true;
   double max_noise_scale = 100.0;
   // Filter poses that must see a feature before it enters the state (delayed initialisation,
-  // above): 1 adds every feature at its first sighting, as the paper does; 2 at its second.
+  // above): 1 adds every feature at its first sighting, as the paper does; 2 at its second,
+  // which leaves out of the state the features one pose sees (about half on real sequences)
+  // and changes nothing else but linearisation points: the gate tests a pending feature, and
+  // the selector scores a candidate, as the filter holding every feature would (GainTerms).
   // No more: a new pose is tied to the map only by features in the state or entering with
   // it, and at 3 the second pose would have neither.
-  int min_sightings = 1;
+  int min_sightings = 2;
   // At the end of a run (WithdrawInconsistent) every observation the filter took is tested
   // again, at the final estimate, against gate_chi2; the failing ones are withdrawn and the
   // state recovered, up to this many rounds (0: never; nothing is withdrawn without the gate).

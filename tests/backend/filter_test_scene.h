@@ -96,4 +96,21 @@ void RunBoth(const Scene& scene, int num_poses, std::mt19937* rng, FilterA* a, F
   }
 }
 
+// Both filters fed the scene's first num_poses poses at the truth, noise-free: both are
+// linearised at the same points.
+template <typename FilterA, typename FilterB>
+void RunBothAtTheTruth(const Scene& scene, int num_poses, std::mt19937* rng, FilterA* a,
+                       FilterB* b) {
+  for (int i = 0; i < num_poses; ++i) {
+    const std::vector<FeatureObservation> observations = Observe(scene, i, false, rng);
+    if (i == 0) {
+      a->AddFirstPose(scene.frame_ids[0], scene.poses[0], observations);
+      b->AddFirstPose(scene.frame_ids[0], scene.poses[0], observations);
+    } else {
+      a->AddPose(scene.frame_ids[i], scene.poses[i], observations);
+      b->AddPose(scene.frame_ids[i], scene.poses[i], observations);
+    }
+  }
+}
+
 }  // namespace ieslam

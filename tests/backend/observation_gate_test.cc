@@ -12,9 +12,11 @@
 namespace ieslam {
 namespace {
 
+// Every feature in the state from its first sighting: the fixture's features are known ones.
 InformationFilterOptions GatedOptions() {
   InformationFilterOptions options;
   options.gate_chi2 = 16.27;
+  options.min_sightings = 1;
   return options;
 }
 

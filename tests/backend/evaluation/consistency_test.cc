@@ -149,7 +149,8 @@ TEST(ConsistencyTest, FilterNeesMatchesTheDenseReferenceAndLiesInTheBand) {
       std::mt19937 rng(100 + run);
       const Scene scene = MakeScene(4, 60, &rng);
       InformationFilter filter(options, scene.camera);
-      testing::DenseReferenceFilter dense(options.anchor_information, scene.camera);
+      testing::DenseReferenceFilter dense(options.anchor_information, scene.camera,
+                                          options.min_sightings);
       const std::vector<FeatureObservation> first = Observe(scene, 0, true, &rng);
       filter.AddFirstPose(scene.frame_ids[0], scene.poses[0], first);
       dense.AddFirstPose(scene.frame_ids[0], scene.poses[0], first);

@@ -92,8 +92,10 @@ TEST(KnownAssociationRunTest, DelayedInitialisationDropsOnlyTheSingleSightedFeat
   InformationFilterOptions delayed;
   delayed.min_sightings = 2;
   const BundleAdjustmentOptions ba;
+  InformationFilterOptions at_once_options;
+  at_once_options.min_sightings = 1;
   const KnownAssociationMetrics at_once =
-      RunKnownAssociation(input, Kind(SelectorKind::kAll), InformationFilterOptions());
+      RunKnownAssociation(input, Kind(SelectorKind::kAll), at_once_options);
   const KnownAssociationMetrics m =
       RunKnownAssociation(input, Kind(SelectorKind::kAll), delayed, &ba);
   EXPECT_EQ(m.frames_used, 80);

@@ -38,11 +38,18 @@ TEST(PipelineTest, GivesTheEstimateItsCovariancesAndThePosesOfEveryFrame) {
     EXPECT_TRUE(result.T_w_c[frame]->isApprox(PoseToIsometry(result.filter->pose(frame))));
     EXPECT_EQ(result.estimate.pose_covariances.at(frame), result.filter->PoseCovariance(frame));
   }
-  // The problem holds the filter's poses, features and every observation it used.
+  // The problem holds the filter's poses, features and every observation it used: all but
+  // the sightings of features still pending (seen by one pose), which constrain nothing.
   EXPECT_EQ(result.problem.T_w_c.size(), result.selection.selected.size());
   EXPECT_EQ(static_cast<int>(result.problem.p_w.size()), result.filter->num_features());
-  size_t observations = 0;
-  for (const auto& [frame, list] : result.selection.observations) observations += list.size();
+  size_t observations = 0, pending = 0;
+  for (const auto& [frame, list] : result.selection.observations) {
+    for (const FeatureObservation& obs : list) {
+      ++(result.filter->IsPending(obs.feature_id) ? pending : observations);
+    }
+  }
+  EXPECT_GT(pending, 0u);
+  EXPECT_EQ(static_cast<int>(pending), result.filter->num_pending_features());
   EXPECT_EQ(result.problem.observations.size(), observations);
   EXPECT_FALSE(result.refinement.has_value());
 }
