@@ -667,10 +667,13 @@ double InformationFilter::LogDetExpandedInformation(
     int num_first_sightings_to_count) const {
   const int max_first = num_first_sightings_to_count < 0 ? INT_MAX : num_first_sightings_to_count;
   const Linearization lin = Linearize(-1, T_w_c_candidate, observations, max_first);
-  const int entering_first = lin.num_new - lin.num_tied;
-  CHECK(num_first_sightings_to_count < 0 || options_.min_sightings > 1 ||
-        entering_first == num_first_sightings_to_count)
-      << "the candidate has " << entering_first << " first sightings, asked to count "
+  // The first sightings counted: those that entered, or with min_sightings above 1 (where
+  // they wait aside, unlinearised) as many as the candidate has, up to the count.
+  const int counted = options_.min_sightings > 1
+                          ? std::min(CountFirstSightings(observations), max_first)
+                          : lin.num_new - lin.num_tied;
+  CHECK(num_first_sightings_to_count < 0 || counted == num_first_sightings_to_count)
+      << "the candidate has " << counted << " first sightings, asked to count "
       << num_first_sightings_to_count;
   UpperColumnStorage expanded = matrix_;
   AppendToMatrix(lin, 0.0, &expanded);

@@ -101,9 +101,10 @@ struct InformationFilterOptions {
   double max_noise_scale = 100.0;
   // Filter poses that must see a feature before it enters the state (delayed initialisation,
   // above): 1 adds every feature at its first sighting, as the paper does; 2 at its second,
-  // which leaves out of the state the features one pose sees (about half on real sequences)
-  // and changes nothing else but linearisation points: the gate tests a pending feature, and
-  // the selector scores a candidate, as the filter holding every feature would (GainTerms).
+  // which leaves the features one pose sees (about half on real sequences) out of the state
+  // and out of the refinement's problem. The gate tests a pending feature, and the selector
+  // scores a candidate, as the filter holding every feature would (GainTerms), so the two
+  // differ by linearisation points: on every sequence measured they chose the same keyframes.
   // No more: a new pose is tied to the map only by features in the state or entering with
   // it, and at 3 the second pose would have neither.
   int min_sightings = 2;
@@ -349,8 +350,6 @@ class InformationFilter {
   // A known feature's estimate, or a pending one's first sighting back-projected from that
   // pose's estimate (where the filter holding it since would have it, to first order).
   Eigen::Vector3d MapFeature(int64_t feature_id) const;
-  // Features among `observations` not yet in the state (new or pending).
-  int CountNewFeatures(const std::vector<FeatureObservation>& observations) const;
   // Features that adding a pose with `observations` brings into the state: the new ones
   // (min_sightings 1), or the pending ones this sighting completes.
   int CountEnteringFeatures(const std::vector<FeatureObservation>& observations) const;

@@ -299,12 +299,6 @@ int InformationFilter::CountFirstSightings(
   return count;
 }
 
-int InformationFilter::CountNewFeatures(const std::vector<FeatureObservation>& observations) const {
-  int count = 0;
-  for (const FeatureObservation& obs : observations) count += HasFeature(obs.feature_id) ? 0 : 1;
-  return count;
-}
-
 int InformationFilter::CountEnteringFeatures(
     const std::vector<FeatureObservation>& observations) const {
   int count = 0;

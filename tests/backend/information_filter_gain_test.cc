@@ -53,7 +53,9 @@ void ExpectGainOfTheExpandedMatrix(const InformationFilter& sparse,
       dense.LogDetExpanded(candidate, observations, count) - dense.LogDetInformation();
   EXPECT_NEAR(fast, expanded, 1e-6 * std::abs(expanded)) << "counting " << count;
   EXPECT_NEAR(fast, paper, 1e-9 * std::abs(paper)) << "counting " << count;
-  if (sparse.options().min_sightings == 1) EXPECT_NEAR(terms.total(), fast, 1e-9 * std::abs(fast));
+  if (sparse.options().min_sightings == 1) {
+    EXPECT_NEAR(terms.total(), fast, 1e-9 * std::abs(fast));
+  }
   EXPECT_GT(fast, 0.0);
 }
 
