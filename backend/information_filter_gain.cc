@@ -160,15 +160,13 @@ double CombineGain(const GainBlocks& b, const FeatureCovariance& known, GainTerm
   if (!std::isfinite(map_term)) return kMinusInfinity;
   const double gain = b.new_features_term + log_det_C + map_term;
   if (terms == nullptr) return gain;
-  if (b.sightings.empty()) {
-    *terms = {b.new_features_term + b.waiting_terms, log_det_C, map_term};
-    return gain;
-  }
-  const double pose_term = LogDetSpd(b.C_with_pending);
+  // Without entering pending features the pose and map terms are this filter's own.
+  const double pose_term = b.sightings.empty() ? log_det_C : LogDetSpd(b.C_with_pending);
   if (!std::isfinite(pose_term)) return kMinusInfinity;
   terms->new_features = b.lone_terms + b.waiting_terms;
   terms->pose = pose_term;
-  terms->map = gain - (b.lone_terms + b.first_sightings_term) - pose_term;
+  terms->map =
+      b.sightings.empty() ? map_term : gain - (b.lone_terms + b.first_sightings_term) - pose_term;
   return gain;
 }
 

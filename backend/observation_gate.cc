@@ -293,11 +293,10 @@ GatedObservations GateObservations(const InformationFilter& filter, const Vector
   std::vector<Term> terms;
   for (size_t i = 0; i < observations.size(); ++i) {
     const auto it = known.index.find(observations[i].feature_id);
-    if (!filter.HasFeature(observations[i].feature_id)) {
-      // A pending feature is tested where `known` holds it, as the filter holding it since its
-      // first sighting would test it; a feature no pose has seen cannot be.
-      if (it == known.index.end() || !filter.IsPending(observations[i].feature_id)) continue;
-    }
+    // A pending feature is tested where `known` holds it (JointFeatureCovariance holds only
+    // known and pending ones), as the filter holding it since its first sighting would test
+    // it; a feature no pose has seen cannot be.
+    if (!filter.HasFeature(observations[i].feature_id) && it == known.index.end()) continue;
     CHECK(it != known.index.end())
         << "feature " << observations[i].feature_id << " is missing from the FeatureCovariance";
     Term t;
