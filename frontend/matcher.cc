@@ -30,11 +30,6 @@ cv::Mat AsFloatRows(const cv::Mat& m) {
   return rows;
 }
 
-bool Fail(std::string* why, const std::string& message) {
-  if (why != nullptr) *why = message;
-  return false;
-}
-
 }  // namespace
 
 const OptionTable<MatchOptions>& MatchOptions::Table() {
@@ -107,16 +102,58 @@ std::vector<DescriptorMatch> MatchDescriptors(const cv::Mat& query, const cv::Ma
 
 // The FLANN copy inside OpenCV: Debian's libflann shuffles its randomised trees with
 // std::random_device, so no seed makes its index (and the ranking) repeatable; OpenCV's copy
-// draws from std::rand, which cvflann::seed_random seeds. OpenCV's index cannot grow, so the
+// draws from cv::theRNG, which cvflann::seed_random seeds. Its index cannot grow, so the
 // rows added since the last build (the tail) are searched exactly, and the index is rebuilt
 // once the tail passes 1/kTailFraction of the indexed rows: geometric growth bounds the total
 // build cost by a constant times the final build. One tree and a 1/16 tail rank as well as
 // more trees and a longer tail at a fraction of the cost (docs/frontend_notes.md).
+//
+// The tree is OpenCV's header template over the rows' own type: bytes stay bytes (a quarter
+// of the memory a float copy takes, and of the cache lines each distance reads), and the
+// squared distances are the same integers either way, exact in float.
+class KdTree {
+ public:
+  virtual ~KdTree() = default;
+  // The k nearest indexed rows of each query row (the tree's type), nearest first: row
+  // indices (CV_32S, -1 where fewer were found) and squared distances (CV_32F).
+  virtual void Search(const cv::Mat& query, int k, int checks, cv::Mat* indices,
+                      cv::Mat* dists) const = 0;
+};
+
+template <typename T>
+class KdTreeOf : public KdTree {
+ public:
+  // `rows` (continuous) is shared, not copied: the header keeps its buffer alive.
+  KdTreeOf(const cv::Mat& rows, int trees)
+      : rows_(rows),
+        tree_(cvflann::Matrix<T>(const_cast<T*>(rows_.ptr<T>()), rows_.rows, rows_.cols),
+              cvflann::KDTreeIndexParams(trees)) {
+    CHECK(rows_.isContinuous());
+    tree_.buildIndex();
+  }
+  void Search(const cv::Mat& query, int k, int checks, cv::Mat* indices,
+              cv::Mat* dists) const override {
+    CHECK_EQ(query.type(), rows_.type());
+    const cv::Mat q = query.isContinuous() ? query : query.clone();
+    indices->create(q.rows, k, CV_32S);
+    dists->create(q.rows, k, CV_32F);
+    cvflann::Matrix<int> i(indices->ptr<int>(), q.rows, k);
+    cvflann::Matrix<float> d(dists->ptr<float>(), q.rows, k);
+    tree_.knnSearch(cvflann::Matrix<T>(const_cast<T*>(q.ptr<T>()), q.rows, q.cols), i, d, k,
+                    cvflann::SearchParams(checks));
+  }
+
+ private:
+  cv::Mat rows_;
+  // knnSearch is not const in cvflann, though a search leaves the tree as it was.
+  mutable cvflann::KDTreeIndex<cvflann::L2<T>> tree_;
+};
+
 struct BaseFrameDatabase::Index {
   cv::Mat storage;  // capacity for rows
   cv::Mat rows;     // every base frame's descriptors, in the order added (in storage)
-  int indexed = 0;  // rows [0, indexed) are in `flann`
-  std::unique_ptr<cv::flann::Index> flann;
+  int indexed = 0;  // rows [0, indexed) are in `tree`
+  std::unique_ptr<KdTree> tree;
 };
 
 BaseFrameDatabase::BaseFrameDatabase(const DatabaseOptions& options)
@@ -156,10 +193,11 @@ void BaseFrameDatabase::Add(int frame_id, const cv::Mat& descriptors) {
   const int tail = index_->rows.rows - index_->indexed;
   if (tail <= std::max(kMinTailRows, index_->indexed / kTailFraction)) return;
   cvflann::seed_random(options_.seed);
-  // The index keeps a float copy of the rows it is built from (OpenCV clones them).
-  index_->flann.reset(new cv::flann::Index(AsFloatRows(index_->rows),
-                                           cv::flann::KDTreeIndexParams(options_.trees),
-                                           cvflann::FLANN_DIST_L2));
+  if (index_->rows.type() == CV_8U) {
+    index_->tree = std::make_unique<KdTreeOf<unsigned char>>(index_->rows, options_.trees);
+  } else {
+    index_->tree = std::make_unique<KdTreeOf<float>>(index_->rows, options_.trees);
+  }
   index_->indexed = index_->rows.rows;
 }
 
@@ -169,10 +207,9 @@ std::vector<std::vector<std::pair<float, int>>> BaseFrameDatabase::Nearest(const
   // merged with the exact tail's.
   std::vector<std::vector<std::pair<float, int>>> nearest(query.rows);
   const cv::Mat q = AsFloatRows(query);
-  if (index_->flann) {
+  if (index_->tree) {
     cv::Mat indices, dists;
-    index_->flann->knnSearch(q, indices, dists, std::min(k, index_->indexed),
-                             cv::flann::SearchParams(options_.checks));
+    index_->tree->Search(query, std::min(k, index_->indexed), options_.checks, &indices, &dists);
     for (int i = 0; i < query.rows; ++i) {
       for (int n = 0; n < indices.cols; ++n) {
         if (indices.at<int>(i, n) >= 0) {
