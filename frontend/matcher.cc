@@ -108,14 +108,14 @@ std::vector<DescriptorMatch> MatchDescriptors(const cv::Mat& query, const cv::Ma
 // build cost by a constant times the final build. One tree and a 1/16 tail rank as well as
 // more trees and a longer tail at a fraction of the cost (docs/frontend_notes.md).
 //
-// The tree is OpenCV's header template over the rows' own type: bytes stay bytes (a quarter
-// of the memory a float copy takes, and of the cache lines each distance reads), and the
-// squared distances are the same integers either way, exact in float.
+// The tree is OpenCV's header template over the rows' own type: bytes stay bytes (no float
+// copy, and a quarter of the cache lines each distance reads), and the squared distances are
+// the same integers either way, exact in float.
 class KdTree {
  public:
   virtual ~KdTree() = default;
-  // The k nearest indexed rows of each query row (the tree's type), nearest first: row
-  // indices (CV_32S, -1 where fewer were found) and squared distances (CV_32F).
+  // The k (at most the indexed rows) nearest indexed rows of each query row (the tree's
+  // type), nearest first: row indices (CV_32S) and squared distances (CV_32F).
   virtual void Search(const cv::Mat& query, int k, int checks, cv::Mat* indices,
                       cv::Mat* dists) const = 0;
 };
@@ -206,7 +206,6 @@ std::vector<std::vector<std::pair<float, int>>> BaseFrameDatabase::Nearest(const
   // Per query row, (squared distance, database row) of its k nearest: the index's, then
   // merged with the exact tail's.
   std::vector<std::vector<std::pair<float, int>>> nearest(query.rows);
-  const cv::Mat q = AsFloatRows(query);
   if (index_->tree) {
     cv::Mat indices, dists;
     index_->tree->Search(query, std::min(k, index_->indexed), options_.checks, &indices, &dists);
@@ -224,6 +223,7 @@ std::vector<std::vector<std::pair<float, int>>> BaseFrameDatabase::Nearest(const
   for (auto& candidates : nearest) std::sort(candidates.begin(), candidates.end());
   const int tail = index_->rows.rows - index_->indexed;
   if (tail > 0) {
+    const cv::Mat q = AsFloatRows(query);
     const auto qe = AsEigen(q);
     const Eigen::VectorXf q_norm = qe.rowwise().squaredNorm();
     constexpr int kBlock = 512;
@@ -253,6 +253,8 @@ std::vector<std::pair<int, int>> BaseFrameDatabase::RankFrames(const cv::Mat& qu
                                                                int max_frames) const {
   std::vector<std::pair<int, int>> ranked;
   if (index_->rows.empty() || query.rows == 0) return ranked;
+  CHECK_EQ(query.type(), index_->rows.type()) << "query descriptors of another type than the "
+                                                 "database's";
   const int k = std::min<int>(options_.neighbours, index_->rows.rows);
   const std::vector<std::vector<std::pair<float, int>>> nearest = Nearest(query, k);
   std::vector<std::vector<size_t>> indices(query.rows);

@@ -68,9 +68,9 @@ class BaseFrameDatabase {
   void Clear();
   bool Contains(int frame_id) const;
 
-  // Base frames ranked by the number of query descriptors that vote for them (most
-  // first, ties by frame id), at most `max_frames` of them: the candidates for exact
-  // matching and registration.
+  // Base frames ranked by the number of query descriptors (of the type the database holds)
+  // that vote for them (most first, ties by frame id), at most `max_frames` of them: the
+  // candidates for exact matching and registration.
   std::vector<std::pair<int, int>> RankFrames(const cv::Mat& query, int max_frames) const;
 
  private:
