@@ -1,15 +1,14 @@
 #include "backend/depth_alignment.h"
 
 #include <algorithm>
-#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <optional>
-#include <thread>
 
 #include <Eigen/Eigenvalues>
 
 #include "core/error.h"
+#include "core/parallel_for.h"
 #include "core/stopwatch.h"
 
 namespace ieslam {
@@ -139,19 +138,6 @@ Matrix6d SqrtOf(const Matrix6d& H) {
   const Eigen::SelfAdjointEigenSolver<Matrix6d> eigen(0.5 * (H + H.transpose()));
   const Vector6d root = eigen.eigenvalues().cwiseMax(0.0).cwiseSqrt();
   return root.asDiagonal() * eigen.eigenvectors().transpose();
-}
-
-// Runs work(k) for k in [0, count) on `threads` threads (the caller's among them).
-template <typename Work>
-void ParallelFor(size_t count, int threads, const Work& work) {
-  std::atomic<size_t> next{0};
-  auto run = [&]() {
-    for (size_t k = next++; k < count; k = next++) work(k);
-  };
-  std::vector<std::thread> pool;
-  for (int t = 1; t < threads && static_cast<size_t>(t) < count; ++t) pool.emplace_back(run);
-  run();
-  for (std::thread& thread : pool) thread.join();
 }
 
 Eigen::Isometry3d SensorPose(const Eigen::Isometry3d& T_w_c, const RangeCloud& cloud) {

@@ -8,6 +8,7 @@
 #include <opencv2/core.hpp>
 
 #include "core/error.h"
+#include "core/parallel_for.h"
 #include "core/stopwatch.h"
 
 namespace ieslam {
@@ -182,17 +183,35 @@ CandidateFrame RgbdFrameSource::Unusable(int frame) const {
   return candidate;
 }
 
-FrameRegistration RgbdFrameSource::Register(int base, int frame) {
-  const auto cached = registrations_.find({base, frame});
-  if (cached != registrations_.end()) return cached->second;
-  const ProcessedFrame& a = Processed(base);
+std::vector<FrameRegistration> RgbdFrameSource::Register(const std::vector<int>& bases, int frame) {
+  // The frames are looked up (processed if need be) here, then the registrations not cached
+  // yet run on registration_threads threads: each is a function of the two processed frames
+  // and the options alone (RANSAC is seeded per registration), so the thread count changes
+  // the time only. Cache and timings are updated in the bases' order afterwards.
   const ProcessedFrame& b = Processed(frame);
-  FrameRegistration registration =
-      RegisterFrames(a, b, options_.frontend.matching, options_.frontend.registration);
-  timings_.match_s += registration.seconds_match;
-  timings_.ransac_s += registration.seconds_ransac;
-  registrations_.emplace(std::make_pair(base, frame), registration);
-  return registration;
+  std::vector<FrameRegistration> out(bases.size());
+  std::vector<const ProcessedFrame*> base_frames(bases.size(), nullptr);
+  std::vector<size_t> todo;
+  for (size_t i = 0; i < bases.size(); ++i) {
+    const auto cached = registrations_.find({bases[i], frame});
+    if (cached != registrations_.end()) {
+      out[i] = cached->second;
+    } else {
+      base_frames[i] = &Processed(bases[i]);
+      todo.push_back(i);
+    }
+  }
+  ParallelFor(todo.size(), options_.registration_threads, [&](size_t t) {
+    const size_t i = todo[t];
+    out[i] = RegisterFrames(*base_frames[i], b, options_.frontend.matching,
+                            options_.frontend.registration);
+  });
+  for (size_t i : todo) {
+    timings_.match_s += out[i].seconds_match;
+    timings_.ransac_s += out[i].seconds_ransac;
+    registrations_.emplace(std::make_pair(bases[i], frame), out[i]);
+  }
+  return out;
 }
 
 CandidateFrame RgbdFrameSource::PrepareFirst(int frame) {
@@ -240,13 +259,13 @@ CandidateFrame RgbdFrameSource::Build(int frame, const std::vector<int>& bases) 
   // Register against every base candidate; the one with most inliers is the base frame.
   std::vector<std::pair<int, FrameRegistration>> registered;
   std::string refusal = bases.empty() ? "" : "no base frame to register against";
-  for (int base : bases) {
-    FrameRegistration registration = Register(base, frame);
-    if (registration.result.success) {
-      registered.emplace_back(base, std::move(registration));
+  std::vector<FrameRegistration> registrations = Register(bases, frame);
+  for (size_t i = 0; i < bases.size(); ++i) {
+    if (registrations[i].result.success) {
+      registered.emplace_back(bases[i], std::move(registrations[i]));
     } else {
-      refusal = "base frame " + std::to_string(dataset_.info(base).source_index) + ": " +
-                registration.result.reason;
+      refusal = "base frame " + std::to_string(dataset_.info(bases[i]).source_index) + ": " +
+                registrations[i].result.reason;
     }
   }
   std::stable_sort(registered.begin(), registered.end(), [](const auto& x, const auto& y) {

@@ -45,6 +45,9 @@ struct RgbdSourceOptions {
   int min_inliers_secondary = 15;
   // Frames loaded and processed ahead on worker threads (0 workers: sequential).
   PrefetchOptions prefetch;
+  // Threads that register a frame to its base candidates, the caller's among them (set from
+  // the run's threads, like the prefetch workers); any number gives the same registrations.
+  int registration_threads = 1;
   // A rolling-shutter rig's frames are compensated with the velocity their registrations to
   // the frames next to them give (frontend/rolling_shutter.h). Frames further apart in time
   // than this say nothing of each other's velocity: three frame periods at 30 Hz (a stride of
@@ -138,7 +141,8 @@ class RgbdFrameSource : public FrameSource {
   CandidateFrame Build(int frame, const std::vector<int>& bases);
   // The candidate of an unusable frame: not registered, with the reason.
   CandidateFrame Unusable(int frame) const;
-  FrameRegistration Register(int base, int frame);
+  // `frame`'s registration to each of `bases`, in their order (cached per pair).
+  std::vector<FrameRegistration> Register(const std::vector<int>& bases, int frame);
 
   const Dataset& dataset_;
   RgbdSourceOptions options_;

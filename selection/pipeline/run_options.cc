@@ -92,6 +92,9 @@ RunOptions RunOptions::Resolved() const {
   used.source.frontend.registration.seed = seed;
   used.source.database.seed = seed;
   used.source.prefetch.workers = PrefetchWorkers(threads);
+  // A frame's registrations to its base candidates are independent: any number of threads
+  // gives the same ones.
+  used.source.registration_threads = WorkerThreads(threads);
   if (threads > 0) used.pipeline.ba.num_threads = threads;
   // Pairs align independently: any number of threads gives the same constraints.
   used.pipeline.depth_alignment.num_threads = WorkerThreads(threads);

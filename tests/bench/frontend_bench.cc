@@ -1,8 +1,8 @@
 // Front-end micro-benchmarks on real 7-Scenes frames: image loading, SIFT extraction,
 // lifting, exact pair matching, FLANN database ranking against growing databases, RANSAC
-// registration, and the whole per-frame front end (features + matching against the previous
-// frame + lifting + RANSAC; target <= 40 ms). Run through scripts/bench.sh;
-// OpenCV runs single-threaded.
+// registration (one pair, and one frame against 8 base frames on 1 and 2 threads), and the
+// whole per-frame front end (features + matching against the previous frame + lifting +
+// RANSAC; target <= 40 ms). Run through scripts/bench.sh; OpenCV runs single-threaded.
 #include <benchmark/benchmark.h>
 
 #include <memory>
@@ -11,6 +11,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "core/dataset.h"
+#include "core/parallel_for.h"
 #include "frontend/frame_processor.h"
 
 namespace ieslam {
@@ -115,6 +116,24 @@ void BM_RegisterPair(benchmark::State& state) {
   state.counters["inliers"] = inliers;
 }
 BENCHMARK(BM_RegisterPair)->Unit(benchmark::kMillisecond);
+
+// One frame registered against the 8 base candidates a frame is registered to, on N
+// threads, as RgbdFrameSource does for each prepared frame (registration_threads).
+void BM_RegisterAgainstBases(benchmark::State& state) {
+  Fixture& f = Shared();
+  const int threads = static_cast<int>(state.range(0));
+  constexpr size_t kBases = 8;
+  std::vector<FrameRegistration> out(kBases);
+  for (auto _ : state) {
+    ParallelFor(kBases, threads, [&](size_t i) {
+      out[i] = RegisterFrames(f.processed[1 + i], f.processed[0], f.options.matching,
+                              f.options.registration);
+    });
+    benchmark::DoNotOptimize(out.data());
+  }
+  state.counters["threads"] = threads;
+}
+BENCHMARK(BM_RegisterAgainstBases)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 // Reading a frame from disk (the files are in the page cache after the first pass): colour
 // JPEG decoding, 16-bit PNG decoding, and Dataset::Load with the depth conversion to metres.

@@ -85,6 +85,37 @@ TEST(RgbdFrameSourceTest, AReleasedFrameIsFreedAndPreparedAgainAlike) {
   }
 }
 
+// A frame's registrations to its base candidates run on registration_threads threads; any
+// number gives the same candidate, bit for bit.
+TEST(RgbdFrameSourceTest, RegistrationThreadsGiveTheSameCandidates) {
+  const std::unique_ptr<Dataset> dataset = OpenDataset(kSevenScenes, DatasetOptions());
+  std::vector<CandidateFrame> by_threads;
+  for (int threads : {1, 3}) {
+    RgbdSourceOptions options;
+    options.registration_threads = threads;
+    RgbdFrameSource source(*dataset, options);
+    source.Commit(source.PrepareFirst(0));
+    for (int frame : {4, 8, 12}) {
+      const CandidateFrame c = source.Prepare(frame);
+      ASSERT_TRUE(c.registered) << c.reason;
+      source.Commit(c);
+    }
+    by_threads.push_back(source.Prepare(16));
+  }
+  const CandidateFrame& one = by_threads[0];
+  const CandidateFrame& three = by_threads[1];
+  ASSERT_TRUE(one.registered) << one.reason;
+  EXPECT_EQ(three.base_frame, one.base_frame);
+  EXPECT_TRUE(three.T_base_c.isApprox(one.T_base_c, 0.0));
+  EXPECT_EQ(three.common_features, one.common_features);
+  EXPECT_GT(one.common_features, 50);
+  ASSERT_EQ(three.observations.size(), one.observations.size());
+  for (size_t i = 0; i < one.observations.size(); ++i) {
+    EXPECT_EQ(three.observations[i].feature_id, one.observations[i].feature_id);
+    EXPECT_EQ(three.observations[i].z, one.observations[i].z);
+  }
+}
+
 TEST(RgbdFrameSourceTest, FinishFreesEveryFrame) {
   const std::unique_ptr<Dataset> dataset = OpenDataset(kSevenScenes, DatasetOptions());
   RgbdFrameSource source(*dataset, RgbdSourceOptions());
