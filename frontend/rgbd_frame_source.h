@@ -45,8 +45,9 @@ struct RgbdSourceOptions {
   int min_inliers_secondary = 15;
   // Frames loaded and processed ahead on worker threads (0 workers: sequential).
   PrefetchOptions prefetch;
-  // Threads that register a frame to its base candidates, the caller's among them (set from
-  // the run's threads, like the prefetch workers); any number gives the same registrations.
+  // Threads that register a frame to its base candidates (up to max_base_candidates and the
+  // last base frame), the caller's among them, at most one per registration (set from the
+  // run's threads, like the prefetch workers); any number gives the same registrations.
   int registration_threads = 1;
   // A rolling-shutter rig's frames are compensated with the velocity their registrations to
   // the frames next to them give (frontend/rolling_shutter.h). Frames further apart in time
@@ -73,9 +74,14 @@ struct SourceTimings {
   // Wall time the caller's thread spent getting processed frames: all of load + extract +
   // lift when sequential, only the waits when workers prefetch.
   double fetch_wall_s = 0.0;
+  // How far match_s + ransac_s of the registrations run on several threads exceed the
+  // caller's wall time spent on them (their overlap).
+  double parallel_overlap_s = 0.0;
   double total() const { return extract_s + lift_s + match_s + ransac_s + load_s + database_s; }
   // The front end's share of the caller's thread (what selection time must not include).
-  double caller() const { return fetch_wall_s + match_s + ransac_s + database_s; }
+  double caller() const {
+    return fetch_wall_s + match_s + ransac_s + database_s - parallel_overlap_s;
+  }
 };
 
 class RgbdFrameSource : public FrameSource {
