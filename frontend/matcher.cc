@@ -114,8 +114,9 @@ std::vector<DescriptorMatch> MatchDescriptors(const cv::Mat& query, const cv::Ma
 class KdTree {
  public:
   virtual ~KdTree() = default;
-  // The k (at most the indexed rows) nearest indexed rows of each query row (the tree's
-  // type), nearest first: row indices (CV_32S) and squared distances (CV_32F).
+  // The k (at most the indexed rows) nearest indexed rows of each query row (of the tree's
+  // type, which RankFrames checks), nearest first: row indices (CV_32S) and squared distances
+  // (CV_32F).
   virtual void Search(const cv::Mat& query, int k, int checks, cv::Mat* indices,
                       cv::Mat* dists) const = 0;
 };
@@ -133,7 +134,6 @@ class KdTreeOf : public KdTree {
   }
   void Search(const cv::Mat& query, int k, int checks, cv::Mat* indices,
               cv::Mat* dists) const override {
-    CHECK_EQ(query.type(), rows_.type());
     const cv::Mat q = query.isContinuous() ? query : query.clone();
     indices->create(q.rows, k, CV_32S);
     dists->create(q.rows, k, CV_32F);
