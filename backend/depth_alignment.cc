@@ -296,6 +296,9 @@ const OptionTable<DepthAlignmentOptions>& DepthAlignmentOptions::Table() {
         .Above(0.0);
     t->Int("min_correspondences", &O::min_correspondences, "matched points a pair needs").Min(6);
     t->Double("convergence_m", &O::convergence_m, "rounds stop once no pose moves more").Min(0.0);
+    t->Int("early_rejection_rounds", &O::early_rejection_rounds,
+           "rejection rounds of a round that does not end the alternation (-1: all)")
+        .Min(-1);
     t->Int("num_threads", &O::num_threads, "pairs aligned in parallel: from the run's threads")
         .Min(1)
         .Derived();
@@ -574,8 +577,20 @@ BundleAdjustmentResult SolveWithDepthAlignment(BundleAdjustmentProblem problem,
       return ends_with(solved) &&
              (!ba_options.covariances_wanted || ba_options.covariances_wanted(solved));
     };
+    // A round before the last places poses for the next round's pairs, with fewer rejection
+    // rounds (early_rejection_rounds); one that ends the alternation after all is solved
+    // again with every round, as the last one would be.
+    const bool early = round + 1 < options.rounds && options.early_rejection_rounds >= 0 &&
+                       options.early_rejection_rounds < ba_options.max_rejection_rounds;
+    BundleAdjustmentOptions early_ba = ba_options;
+    early_ba.max_rejection_rounds = options.early_rejection_rounds;
+    early_ba.covariances_wanted = [](const BundleAdjustmentResult&) { return false; };
     const auto ba_start = std::chrono::steady_clock::now();
-    BundleAdjustmentResult solved = SolveBundleAdjustment(problem, camera, round_ba);
+    BundleAdjustmentResult solved =
+        SolveBundleAdjustment(problem, camera, early ? early_ba : round_ba);
+    if (early && solved.usable && !solved.interrupted && ends_with(solved)) {
+      solved = SolveBundleAdjustment(problem, camera, round_ba);
+    }
     s->seconds_ba += SecondsSince(ba_start);
     ++s->rounds;
     // A round whose solve failed or was interrupted is dropped: the last usable one stands

@@ -71,6 +71,14 @@ struct DepthAlignmentOptions {
   // alignment (the batch refinement is the bundle adjustment of the features alone).
   int rounds = 3;
   double convergence_m = 1e-3;
+  // Rounds of rejections and weighing (BundleAdjustmentOptions::max_rejection_rounds) in the
+  // bundle adjustment of a round before the last; -1: as many as the last one. Such a round
+  // only places the poses the next round's pairs are aligned from, and the last round rejects
+  // again from every observation. Two: the first takes out the gross outliers, the second
+  // weighs the pairs at an optimum without them, and that variance factor is where the next
+  // round's pairs start; the later rounds move a few observations at the gate's edge. A round
+  // that ends the alternation early (convergence_m) is solved again with every round.
+  int early_rejection_rounds = 2;
   int num_threads = 1;  // pairs are aligned in parallel; the result does not depend on it
 
   // The options' registration: keys, help, checks (core/option_table.h).
@@ -127,7 +135,8 @@ std::vector<RelativePoseConstraint> AlignCloudPairs(
 // (problem.relative_poses is replaced by them), alternated with the alignment for
 // options.rounds rounds (0: the bundle adjustment of `problem` as it is). From the second
 // round on, the pairs the last solve kept are aligned from their own last alignment
-// (AlignCloudPairs' `starts`). Only the solve whose result stands computes covariances; when
+// (AlignCloudPairs' `starts`), and every round but the last solves with
+// options.early_rejection_rounds. Only the solve whose result stands computes covariances; when
 // a later round fails or is interrupted, the earlier result stands with covariance_error
 // saying why they are missing.
 BundleAdjustmentResult SolveWithDepthAlignment(BundleAdjustmentProblem problem,

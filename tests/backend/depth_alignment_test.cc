@@ -338,6 +338,28 @@ TEST(DepthAlignmentTest, APairWithItsOwnAlignmentIsKeptOverAMoreOverlappingOne) 
   EXPECT_FALSE(has_pair(AlignCloudPairs(clouds, T_w_c, options, nullptr, &starts), 0, 2));
 }
 
+// Eight views around the room, their depth with noise and, when `correlated`, each scaled by
+// +-2% (a range error shared by a frame's points), and the problem started from poses a
+// centimetre and a few tenths of a degree off; `truth` gets the true poses.
+void EightViews(const RangeImager& range, bool correlated, std::map<int, Eigen::Isometry3d>* truth,
+                std::map<int, RangeCloud>* clouds, BundleAdjustmentProblem* problem) {
+  std::mt19937 rng(5);
+  for (int frame = 0; frame < 8; ++frame) {
+    const double a = frame / 8.0 * 2.0 * M_PI;
+    const Eigen::Isometry3d T = Pose(0.15 * std::cos(a), 0.05 * std::sin(2 * a), 0.15 * std::sin(a),
+                                     12.0 * std::sin(a), 4.0 * std::cos(a));
+    (*truth)[frame] = T;
+    cv::Mat depth = RenderRoom(range, T, &rng);
+    if (correlated) depth *= 1.0 + (frame % 2 == 0 ? 1.0 : -1.0) * 0.02;
+    (*clouds)[frame] = MakeRangeCloud(depth, range, Eigen::Isometry3d::Identity(),
+                                      RangeCloudOptions(), "rendered");
+    problem->T_w_c[frame] = frame == 0 ? T
+                                       : Perturb(T, Eigen::Vector3d(0.3, -0.2, 0.1) * kDeg,
+                                                 Eigen::Vector3d(0.01, -0.005, 0.008));
+  }
+  problem->anchor_frame_id = 0;
+}
+
 // The clouds' sampling follows what their constraints show. Where the range errors are as
 // the noise model states (independent per pixel), the constraints are as precise as they
 // state and the later rounds sample twice as densely. Where each frame's depth is off by its
@@ -346,29 +368,12 @@ TEST(DepthAlignmentTest, APairWithItsOwnAlignmentIsKeptOverAMoreOverlappingOne) 
 // about 25) and the sampling stays as it started.
 TEST(DepthAlignmentTest, CloudsAreSampledDenselyOnlyWhereTheirErrorsAreIndependent) {
   const RangeImager range = testing_core::KinectRangeImager();
-  std::map<int, Eigen::Isometry3d> truth;
-  std::map<int, double> scale_error;
-  for (int frame = 0; frame < 8; ++frame) {
-    const double a = frame / 8.0 * 2.0 * M_PI;
-    truth[frame] = Pose(0.15 * std::cos(a), 0.05 * std::sin(2 * a), 0.15 * std::sin(a),
-                        12.0 * std::sin(a), 4.0 * std::cos(a));
-    scale_error[frame] = (frame % 2 == 0 ? 1.0 : -1.0) * 0.02;
-  }
   for (const bool correlated : {false, true}) {
     SCOPED_TRACE(correlated ? "depth scale errors" : "independent noise");
+    std::map<int, Eigen::Isometry3d> truth;
     std::map<int, RangeCloud> clouds;
     BundleAdjustmentProblem problem;
-    std::mt19937 rng(5);
-    for (const auto& [frame, T] : truth) {
-      cv::Mat depth = RenderRoom(range, T, &rng);
-      if (correlated) depth *= 1.0 + scale_error.at(frame);
-      clouds[frame] = MakeRangeCloud(depth, range, Eigen::Isometry3d::Identity(),
-                                     RangeCloudOptions(), "rendered");
-      problem.T_w_c[frame] = frame == 0 ? T
-                                        : Perturb(T, Eigen::Vector3d(0.3, -0.2, 0.1) * kDeg,
-                                                  Eigen::Vector3d(0.01, -0.005, 0.008));
-    }
-    problem.anchor_frame_id = 0;
+    EightViews(range, correlated, &truth, &clouds, &problem);
     DepthAlignmentOptions options;
     options.num_threads = 2;
     // Every round counts as converged: the rounds that remain are the ones that sample
@@ -393,6 +398,35 @@ TEST(DepthAlignmentTest, CloudsAreSampledDenselyOnlyWhereTheirErrorsAreIndepende
       EXPECT_EQ(stats.rounds, 2);
     }
   }
+}
+
+// A round before the last solves with fewer rounds of rejections and weighing; when it ends
+// the alternation after all, it is solved again with every round, so the result is the one
+// the alternation would give without the shortcut.
+TEST(DepthAlignmentTest, ARoundThatEndsTheAlternationEarlyIsSolvedWithEveryRejectionRound) {
+  const RangeImager range = testing_core::KinectRangeImager();
+  std::map<int, Eigen::Isometry3d> truth;
+  std::map<int, RangeCloud> clouds;
+  BundleAdjustmentProblem problem;
+  EightViews(range, /*correlated=*/true, &truth, &clouds, &problem);
+  DepthAlignmentOptions options;
+  options.convergence_m = 1.0;  // the first round ends the alternation
+  ASSERT_GT(options.rounds, 1);
+  std::map<int, BundleAdjustmentResult> results;
+  std::map<int, DepthAlignmentStats> stats;
+  for (const int early : {-1, 1}) {
+    options.early_rejection_rounds = early;
+    results[early] = SolveWithDepthAlignment(problem, range.camera, clouds,
+                                             BundleAdjustmentOptions(), options, &stats[early]);
+    ASSERT_TRUE(results[early].usable) << results[early].termination;
+    EXPECT_EQ(stats[early].rounds, 1);
+  }
+  EXPECT_GT(stats[1].variance_factor, 10.0);
+  EXPECT_EQ(stats[1].variance_factor, stats[-1].variance_factor);
+  for (const auto& [frame, T] : results[-1].T_w_c) {
+    EXPECT_EQ(results[1].T_w_c.at(frame).matrix(), T.matrix()) << frame;
+  }
+  EXPECT_EQ(results[1].pose_covariances.size(), truth.size()) << results[1].covariance_error;
 }
 
 // The clouds are in the range imager's frame, the poses the colour camera's: with the
