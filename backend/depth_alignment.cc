@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <optional>
 
 #include <Eigen/Eigenvalues>
@@ -310,6 +311,13 @@ const OptionTable<DepthAlignmentOptions>& DepthAlignmentOptions::Table() {
       return o.dense_sample_step <= o.sample_step ? std::string()
                                                   : "dense_sample_step must be <= sample_step";
     });
+    t->Require([](const O& o) {
+      return o.early_rejection_rounds != 0
+                 ? std::string()
+                 : "early_rejection_rounds must be -1 or at least 1: a solve without a round of "
+                   "rejections never weighs the pairs, and the next round's sampling follows "
+                   "their weight";
+    });
     return t;
   }();
   return *table;
@@ -523,6 +531,167 @@ std::vector<RelativePoseConstraint> RoundConstraints(const std::map<int, RangeCl
   return constraints;
 }
 
+// A round solved with early_rejection_rounds, kept while its result stands so that it can be
+// solved again with every rejection round should a later round fail: its constraints, the
+// poses and features it started from, and the variance factor and step it was solved with.
+struct EarlyRound {
+  std::vector<RelativePoseConstraint> relative_poses;
+  std::map<int, Eigen::Isometry3d> T_w_c;
+  std::map<int64_t, Eigen::Vector3d> p_w;
+  double variance_factor = 1.0;
+  int sample_step = 0;
+};
+
+// The bundle adjustment of one round: with `early_rejection_rounds` rounds of rejections and no
+// covariances when `early` (*solved_early then true), unless that result `ends` the
+// alternation, which is then solved again with `full`, as the last round is.
+BundleAdjustmentResult SolveRound(const BundleAdjustmentProblem& problem,
+                                  const PinholeCamera& camera, const BundleAdjustmentOptions& full,
+                                  int early_rejection_rounds, bool early,
+                                  const std::function<bool(const BundleAdjustmentResult&)>& ends,
+                                  bool* solved_early) {
+  *solved_early = false;
+  if (early) {
+    BundleAdjustmentOptions early_ba = full;
+    early_ba.max_rejection_rounds = early_rejection_rounds;
+    early_ba.compute_covariances = false;
+    BundleAdjustmentResult solved = SolveBundleAdjustment(problem, camera, early_ba);
+    if (!solved.usable || solved.interrupted || !ends(solved)) {
+      *solved_early = true;
+      return solved;
+    }
+  }
+  return SolveBundleAdjustment(problem, camera, full);
+}
+
+// The alternation of SolveWithDepthAlignment, round by round, and what it carries from one
+// round to the next.
+class Alternation {
+ public:
+  Alternation(BundleAdjustmentProblem problem, const PinholeCamera& camera,
+              const std::map<int, RangeCloud>& clouds, const BundleAdjustmentOptions& ba_options,
+              const DepthAlignmentOptions& options, DepthAlignmentStats* stats)
+      : problem_(std::move(problem)),
+        camera_(camera),
+        clouds_(clouds),
+        ba_options_(ba_options),
+        options_(options),
+        s_(stats),
+        round_options_(options) {}
+
+  // Aligns and solves round `round`; false when the alternation ends with it (the last
+  // round, convergence, a failure or an interruption).
+  bool Round(int round);
+  BundleAdjustmentResult TakeResult() { return std::move(result_); }
+
+ private:
+  void Stand(BundleAdjustmentResult&& solved) {
+    s_->variance_factor = variance_factor_ * solved.relative_pose_variance_factor;
+    s_->sample_step = round_options_.sample_step;
+    result_ = std::move(solved);
+  }
+  // A round whose solve failed or was interrupted is dropped: the last usable one stands (the
+  // caller sees usable == false only when the first round failed), solved again with every
+  // rejection round if it was solved early and the later one failed, else without covariances.
+  void Drop(int round, BundleAdjustmentResult&& solved);
+
+  BundleAdjustmentProblem problem_;
+  const PinholeCamera& camera_;
+  const std::map<int, RangeCloud>& clouds_;
+  const BundleAdjustmentOptions& ba_options_;
+  const DepthAlignmentOptions& options_;
+  DepthAlignmentStats* s_;
+  BundleAdjustmentResult result_;
+  // The constraints' variance factor so far (BundleAdjustmentOptions::weigh_relative_poses):
+  // each round's constraints start at the weight the last round found, so that its first
+  // solve does not follow overstated surfaces. It only grows (each round's factor is >= 1):
+  // measured at a solution the constraints dominate, the median of their residuals
+  // understates their noise, so a later round's larger factor is the better one.
+  double variance_factor_ = 1.0;
+  // The first round samples the clouds at options.sample_step, later ones as NextSampleStep
+  // finds; a round that samples more densely than the last is not skipped for convergence.
+  DepthAlignmentOptions round_options_;
+  std::optional<EarlyRound> early_round_;  // the round that stands, if solved early
+};
+
+bool Alternation::Round(int round) {
+  if (round > 0 && ba_options_.stop && ba_options_.stop()) {
+    NoteMissingCovariances(ba_options_, "interrupted before the next depth-aligned round",
+                           &result_);
+    result_.interrupted = true;
+    return false;
+  }
+  problem_.relative_poses =
+      RoundConstraints(clouds_, problem_, result_, round_options_, variance_factor_, s_);
+  // The next round's step, and whether the alternation ends with `solved` (the last round,
+  // or no pose moved by convergence_m and the step stays): only that solve, whose result
+  // stands, computes covariances.
+  const auto next_step = [&](const BundleAdjustmentResult& solved) {
+    return NextSampleStep(round_options_.sample_step,
+                          variance_factor_ * solved.relative_pose_variance_factor, s_->constraints,
+                          solved, ba_options_, options_);
+  };
+  const auto ends_with = [&](const BundleAdjustmentResult& solved) {
+    return round + 1 == options_.rounds ||
+           (next_step(solved) == round_options_.sample_step &&
+            LargestPoseChange(problem_.T_w_c, solved.T_w_c) < options_.convergence_m);
+  };
+  BundleAdjustmentOptions round_ba = ba_options_;
+  round_ba.covariances_wanted = [&](const BundleAdjustmentResult& solved) {
+    return ends_with(solved) &&
+           (!ba_options_.covariances_wanted || ba_options_.covariances_wanted(solved));
+  };
+  const bool early = round + 1 < options_.rounds && options_.early_rejection_rounds >= 0 &&
+                     options_.early_rejection_rounds < ba_options_.max_rejection_rounds;
+  const auto ba_start = std::chrono::steady_clock::now();
+  bool solved_early = false;
+  BundleAdjustmentResult solved =
+      SolveRound(problem_, camera_, round_ba, options_.early_rejection_rounds, early, ends_with,
+                 &solved_early);
+  s_->seconds_ba += SecondsSince(ba_start);
+  ++s_->rounds;
+  if (!solved.usable || solved.interrupted) {
+    Drop(round, std::move(solved));
+    return false;
+  }
+  const bool last = ends_with(solved);
+  const int step = next_step(solved);
+  early_round_.reset();
+  if (solved_early) {
+    early_round_ = EarlyRound{problem_.relative_poses, problem_.T_w_c, problem_.p_w,
+                              variance_factor_, round_options_.sample_step};
+  }
+  Stand(std::move(solved));
+  variance_factor_ = s_->variance_factor;
+  if (last) return false;
+  problem_.T_w_c = result_.T_w_c;
+  problem_.p_w = result_.p_w;
+  round_options_.sample_step = step;
+  return true;
+}
+
+void Alternation::Drop(int round, BundleAdjustmentResult&& solved) {
+  const bool interrupted = solved.interrupted;
+  const std::string why = interrupted ? "was interrupted" : "failed (" + solved.termination + ")";
+  if (round == 0) Stand(std::move(solved));
+  if (round > 0 && early_round_ && !interrupted) {
+    problem_.relative_poses = std::move(early_round_->relative_poses);
+    problem_.T_w_c = std::move(early_round_->T_w_c);
+    problem_.p_w = std::move(early_round_->p_w);
+    variance_factor_ = early_round_->variance_factor;
+    round_options_.sample_step = early_round_->sample_step;
+    early_round_.reset();
+    const auto start = std::chrono::steady_clock::now();
+    BundleAdjustmentResult again = SolveBundleAdjustment(problem_, camera_, ba_options_);
+    s_->seconds_ba += SecondsSince(start);
+    if (again.usable && !again.interrupted) Stand(std::move(again));
+  }
+  if (round > 0) {
+    NoteMissingCovariances(ba_options_, "the depth-aligned round after it " + why, &result_);
+  }
+  if (interrupted) result_.interrupted = true;
+}
+
 }  // namespace
 
 BundleAdjustmentResult SolveWithDepthAlignment(BundleAdjustmentProblem problem,
@@ -535,87 +704,10 @@ BundleAdjustmentResult SolveWithDepthAlignment(BundleAdjustmentProblem problem,
   DepthAlignmentStats* s = stats != nullptr ? stats : &local;
   *s = DepthAlignmentStats();
   if (options.rounds == 0) return SolveBundleAdjustment(problem, camera, ba_options);
-  BundleAdjustmentResult result;
-  // The constraints' variance factor so far (BundleAdjustmentOptions::weigh_relative_poses):
-  // each round's constraints start at the weight the last round found, so that its first
-  // solve does not follow overstated surfaces. It only grows (each round's factor is >= 1):
-  // measured at a solution the constraints dominate, the median of their residuals
-  // understates their noise, so a later round's larger factor is the better one.
-  double variance_factor = 1.0;
-  // The first round samples the clouds at options.sample_step, later ones as NextSampleStep
-  // finds; a round that samples more densely than the last is not skipped for convergence.
-  DepthAlignmentOptions round_options = options;
-  const auto stand = [&](BundleAdjustmentResult&& solved) {
-    s->variance_factor = variance_factor * solved.relative_pose_variance_factor;
-    s->sample_step = round_options.sample_step;
-    result = std::move(solved);
-  };
-  for (int round = 0; round < options.rounds; ++round) {
-    if (round > 0 && ba_options.stop && ba_options.stop()) {
-      NoteMissingCovariances(ba_options, "interrupted before the next depth-aligned round",
-                             &result);
-      result.interrupted = true;
-      break;
-    }
-    problem.relative_poses =
-        RoundConstraints(clouds, problem, result, round_options, variance_factor, s);
-    // The next round's step, and whether the alternation ends with `solved` (the last round,
-    // or no pose moved by convergence_m and the step stays): only that solve, whose result
-    // stands, computes covariances.
-    const auto next_step = [&](const BundleAdjustmentResult& solved) {
-      return NextSampleStep(round_options.sample_step,
-                            variance_factor * solved.relative_pose_variance_factor, s->constraints,
-                            solved, ba_options, options);
-    };
-    const auto ends_with = [&](const BundleAdjustmentResult& solved) {
-      return round + 1 == options.rounds ||
-             (next_step(solved) == round_options.sample_step &&
-              LargestPoseChange(problem.T_w_c, solved.T_w_c) < options.convergence_m);
-    };
-    BundleAdjustmentOptions round_ba = ba_options;
-    round_ba.covariances_wanted = [&](const BundleAdjustmentResult& solved) {
-      return ends_with(solved) &&
-             (!ba_options.covariances_wanted || ba_options.covariances_wanted(solved));
-    };
-    // A round before the last places poses for the next round's pairs, with fewer rejection
-    // rounds (early_rejection_rounds); one that ends the alternation after all is solved
-    // again with every round, as the last one would be.
-    const bool early = round + 1 < options.rounds && options.early_rejection_rounds >= 0 &&
-                       options.early_rejection_rounds < ba_options.max_rejection_rounds;
-    BundleAdjustmentOptions early_ba = ba_options;
-    early_ba.max_rejection_rounds = options.early_rejection_rounds;
-    early_ba.covariances_wanted = [](const BundleAdjustmentResult&) { return false; };
-    const auto ba_start = std::chrono::steady_clock::now();
-    BundleAdjustmentResult solved =
-        SolveBundleAdjustment(problem, camera, early ? early_ba : round_ba);
-    if (early && solved.usable && !solved.interrupted && ends_with(solved)) {
-      solved = SolveBundleAdjustment(problem, camera, round_ba);
-    }
-    s->seconds_ba += SecondsSince(ba_start);
-    ++s->rounds;
-    // A round whose solve failed or was interrupted is dropped: the last usable one stands
-    // (the caller sees usable == false only when the first round failed), without covariances.
-    if (!solved.usable || solved.interrupted) {
-      const bool interrupted = solved.interrupted;
-      const std::string why =
-          interrupted ? "was interrupted" : "failed (" + solved.termination + ")";
-      if (round > 0) {
-        NoteMissingCovariances(ba_options, "the depth-aligned round after it " + why, &result);
-      }
-      if (round == 0) stand(std::move(solved));
-      if (interrupted) result.interrupted = true;
-      break;
-    }
-    const bool last = ends_with(solved);
-    const int step = next_step(solved);
-    stand(std::move(solved));
-    variance_factor = s->variance_factor;
-    if (last) break;
-    problem.T_w_c = result.T_w_c;
-    problem.p_w = result.p_w;
-    round_options.sample_step = step;
-  }
-  return result;
+  Alternation alternation(std::move(problem), camera, clouds, ba_options, options, s);
+  int round = 0;
+  while (round < options.rounds && alternation.Round(round)) ++round;
+  return alternation.TakeResult();
 }
 
 }  // namespace ieslam

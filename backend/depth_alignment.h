@@ -71,13 +71,15 @@ struct DepthAlignmentOptions {
   // alignment (the batch refinement is the bundle adjustment of the features alone).
   int rounds = 3;
   double convergence_m = 1e-3;
-  // Rounds of rejections and weighing (BundleAdjustmentOptions::max_rejection_rounds) in the
-  // bundle adjustment of a round before the last; -1: as many as the last one. Such a round
-  // only places the poses the next round's pairs are aligned from, and the last round rejects
-  // again from every observation. Two: the first takes out the gross outliers, the second
-  // weighs the pairs at an optimum without them, and that variance factor is where the next
-  // round's pairs start; the later rounds move a few observations at the gate's edge. A round
-  // that ends the alternation early (convergence_m) is solved again with every round.
+  // Rounds of rejections (BundleAdjustmentOptions::max_rejection_rounds; each also weighs
+  // the pairs) in the bundle adjustment of a round before the last; -1: as many as the last
+  // one; not 0, which would leave the pairs unweighed. Such a round only places the poses the
+  // next round's pairs are aligned from, and the last round rejects again from every
+  // observation. Two: the first round of rejections weighs the pairs at an optimum that
+  // still holds the gross outliers, the second at one without them, and that variance
+  // factor is where the next round's pairs start (it only grows); later rounds of rejections
+  // move a few observations at the gate's edge. A round that ends the alternation early
+  // (convergence_m) is solved again with every round of rejections.
   int early_rejection_rounds = 2;
   int num_threads = 1;  // pairs are aligned in parallel; the result does not depend on it
 
@@ -135,10 +137,12 @@ std::vector<RelativePoseConstraint> AlignCloudPairs(
 // (problem.relative_poses is replaced by them), alternated with the alignment for
 // options.rounds rounds (0: the bundle adjustment of `problem` as it is). From the second
 // round on, the pairs the last solve kept are aligned from their own last alignment
-// (AlignCloudPairs' `starts`), and every round but the last solves with
-// options.early_rejection_rounds. Only the solve whose result stands computes covariances; when
-// a later round fails or is interrupted, the earlier result stands with covariance_error
-// saying why they are missing.
+// (AlignCloudPairs' `starts`). A round before the last solves with
+// options.early_rejection_rounds, and again with every rejection round when it ends the
+// alternation after all. Only the solve whose result stands computes covariances. When a later
+// round fails, the earlier result stands, solved again with every rejection round if it was
+// solved with fewer; when one is interrupted, the earlier result stands as it was solved. In
+// both cases, covariance_error says why covariances are missing.
 BundleAdjustmentResult SolveWithDepthAlignment(BundleAdjustmentProblem problem,
                                                const PinholeCamera& camera,
                                                const std::map<int, RangeCloud>& clouds,
