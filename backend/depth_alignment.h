@@ -100,6 +100,10 @@ struct PairAlignment {
   int iterations = 0;
 };
 
+// How far `after` is from `before`: translation in metres or rotation in radians, whichever
+// is larger (a pair's own start against the poses, a round's poses against the last's).
+double PoseChange(const Eigen::Isometry3d& before, const Eigen::Isometry3d& after);
+
 // Aligns `source` to `target` from the initial guess T_t_s (source sensor frame into the
 // target's).
 PairAlignment AlignRangeClouds(const RangeCloud& source, const RangeCloud& target,
