@@ -35,6 +35,33 @@ double Percentile(std::vector<double> values, double q) {
   return values[below] + (position - below) * (values[above] - values[below]);
 }
 
+void SummarisePairErrors(const std::vector<PairError>& pairs, PairErrorSummary* summary) {
+  std::vector<double> rotation, translation;
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero(), squares = Eigen::Vector3d::Zero();
+  int successes = 0;
+  for (const PairError& pair : pairs) {
+    if (pair.success) {
+      ++successes;
+      sum += pair.translation_a;
+      squares += pair.translation_a.cwiseAbs2();
+    }
+    if (!pair.compared) continue;
+    rotation.push_back(pair.rotation_deg);
+    translation.push_back(pair.translation_m);
+  }
+  summary->success_rate = pairs.empty() ? 0.0 : static_cast<double>(successes) / pairs.size();
+  summary->rotation_error_median_deg = Percentile(rotation, 50);
+  summary->translation_error_median_m = Percentile(translation, 50);
+  summary->rotation_error_p90_deg = Percentile(rotation, 90);
+  summary->translation_error_p90_m = Percentile(translation, 90);
+  summary->translation_error_mean_a = Eigen::Vector3d::Zero();
+  summary->translation_error_rms_a = Eigen::Vector3d::Zero();
+  if (successes > 0) {
+    summary->translation_error_mean_a = sum / successes;
+    summary->translation_error_rms_a = (squares / successes).cwiseSqrt();
+  }
+}
+
 PairwiseReport EvaluatePairwiseRegistration(const Dataset& dataset, const FrontendOptions& frontend,
                                             const PairwiseOptions& options,
                                             const std::function<void(int, int)>& progress,
@@ -79,7 +106,8 @@ PairwiseReport EvaluatePairwiseRegistration(const Dataset& dataset, const Fronte
     if (record.registered) {
       const Eigen::Isometry3d T_a_b_gt = a.info.T_w_c_gt->inverse() * *b.info.T_w_c_gt;
       const Eigen::Isometry3d& T_a_b = registration.result.T_a_b;
-      record.translation_error_m = (T_a_b.translation() - T_a_b_gt.translation()).norm();
+      record.translation_error_a = T_a_b.translation() - T_a_b_gt.translation();
+      record.translation_error_m = record.translation_error_a.norm();
       record.rotation_error_deg =
           RotationAngleBetween(T_a_b_gt.linear(), T_a_b.linear()) * 180.0 / M_PI;
       record.success = record.inliers >= options.min_inliers &&
@@ -93,21 +121,14 @@ PairwiseReport EvaluatePairwiseRegistration(const Dataset& dataset, const Fronte
   if (report.pairs.empty() && !report.interrupted) {
     throw DataError(dataset.directory() + ": no frame pair has ground truth to compare with");
   }
-  std::vector<double> rotation, translation, ms;
-  int successes = 0;
+  std::vector<PairError> errors;
+  std::vector<double> ms;
   for (const PairRecord& record : report.pairs) {
     ms.push_back(record.frontend_seconds * 1000.0);
-    if (record.success) ++successes;
-    if (!record.registered) continue;
-    rotation.push_back(record.rotation_error_deg);
-    translation.push_back(record.translation_error_m);
+    errors.push_back({record.success, record.registered, record.translation_error_m,
+                      record.rotation_error_deg, record.translation_error_a});
   }
-  report.success_rate =
-      report.pairs.empty() ? 0.0 : static_cast<double>(successes) / report.pairs.size();
-  report.rotation_error_median_deg = Percentile(rotation, 50);
-  report.translation_error_median_m = Percentile(translation, 50);
-  report.rotation_error_p90_deg = Percentile(rotation, 90);
-  report.translation_error_p90_m = Percentile(translation, 90);
+  SummarisePairErrors(errors, &report);
   report.ms_per_frame = Percentile(ms, 50);
   return report;
 }

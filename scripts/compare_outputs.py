@@ -6,8 +6,9 @@ Every file must be byte-identical, except for what measures time, which is maske
     containing "seconds", and "ms_per_frame", "solve_time_s", "covariance_time_s");
   - Markdown tables (table.md, simulate's stdout) without their time columns;
   - stdout lines that print a time ("refine: ... s", "register.ms_per_frame").
-Keys that only the second tree's JSON has are listed as additions (a new option in a
-report, say) and do not count as a difference unless --strict; every other difference,
+Keys that only the second tree's JSON has, and `key value` lines that only its stdout has
+(every line of the first still there, in order), are listed as additions (a new option in a
+report, a new figure printed) and do not count as a difference unless --strict; every other difference,
 missing file or changed exit code does. stderr is compared too, and its differences are
 listed as warnings (messages may be reworded by a refactor; outputs may not).
 
@@ -85,6 +86,28 @@ def mask_stdout(text):
     return text
 
 
+KEY_VALUE = re.compile(r"^[\w.]+ \S+$")
+
+
+def stdout_diff(a, b, name):
+    """Differences and additions between two masked stdouts: `key value` lines only the second
+    has (a new figure printed) are additions when every line of the first is there, in order."""
+    if a == b:
+        return [], []
+    before, after = a.split("\n"), b.split("\n")
+    added, i = [], 0
+    for line in after:
+        if i < len(before) and line == before[i]:
+            i += 1
+        elif KEY_VALUE.match(line):
+            added.append(f"{name}: {line}")
+        else:
+            return [f"{name}: differs (times masked)"], []
+    if i < len(before):
+        return [f"{name}: differs (times masked)"], []
+    return [], added
+
+
 def read_masking_root(root, name):
     """The file's bytes, with the tree's own path (which the outputs name) as <OUT> and the
     source tree the binary was built from (calibration paths) as <SRC>."""
@@ -138,8 +161,9 @@ def main():
             if mask_markdown_times(a.decode()) != mask_markdown_times(b.decode()):
                 differences.append(f"{name}: differs (time columns masked)")
         elif name.endswith(".stdout"):
-            if mask_stdout(a.decode()) != mask_stdout(b.decode()):
-                differences.append(f"{name}: differs (times masked)")
+            diffs, added = stdout_diff(mask_stdout(a.decode()), mask_stdout(b.decode()), name)
+            differences += diffs
+            additions += added
         elif name.endswith(".stderr"):
             if a != b:
                 warnings.append(f"{name}: differs")

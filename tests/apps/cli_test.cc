@@ -152,6 +152,25 @@ TEST(CliTest, AnInstalledBinaryFindsItsDataBesideItselfOrInIeslamDataDir) {
   fs::remove_all(prefix);
 }
 
+// --dense adds the depth's own alignment of each pair, under its own keys, to the features'.
+TEST(CliTest, RegisterDenseAddsTheDepthAlignmentOfEachPair) {
+  const fs::path out =
+      fs::temp_directory_path() / ("ieslam_cli_register_dense_" + std::to_string(::getpid()));
+  const std::string dataset = (fs::path(IESLAM_SHARED_DATA_DIR) / "tum-fr1-desk-9").string();
+  const Result result = RunIeslam("register --quiet --step 1 --last 2 --dense --dataset " +
+                                  dataset + " --output " + out.string());
+  EXPECT_EQ(result.exit_code, 0) << result.output;
+  for (const char* key :
+       {"register.pairs 2", "register.trans_err_rms_z_m ", "register.dense.pairs 2",
+        "register.dense.success_rate ", "register.dense.trans_err_rms_z_m "}) {
+    EXPECT_NE(result.output.find(key), std::string::npos) << key << "\n" << result.output;
+  }
+  const std::string json = ieslam::testing_apps::ReadFile((out / "register.json").string());
+  EXPECT_NE(json.find("\"dense\""), std::string::npos) << json;
+  EXPECT_NE(json.find("\"trans_err_xyz_m\""), std::string::npos) << json;
+  fs::remove_all(out);
+}
+
 TEST(CliTest, VersionPrintsTheProjectVersion) {
   const Result result = RunIeslam("--version");
   EXPECT_EQ(result.exit_code, 0);

@@ -44,6 +44,17 @@ TEST_F(PairwiseEvaluationTest, RegistersEveryPairWithinTheGroundTruthLimits) {
   EXPECT_EQ(report.pairs[3].frame_b, 5);
   EXPECT_EQ(report.success_rate, 1.0);
   EXPECT_LT(report.translation_error_p90_m, 0.01);
+  // Per axis in frame a's camera, over the successful pairs (all of them here): the squares
+  // of the RMS add up to the mean squared error, and the mean is no larger than the RMS.
+  double mean_square = 0.0;
+  for (const PairRecord& pair : report.pairs) {
+    mean_square += pair.translation_error_m * pair.translation_error_m / report.pairs.size();
+  }
+  EXPECT_NEAR(report.translation_error_rms_a.squaredNorm(), mean_square, 1e-15);
+  EXPECT_TRUE((report.translation_error_mean_a.cwiseAbs().array() <=
+               report.translation_error_rms_a.array() + 1e-15)
+                  .all());
+  EXPECT_GT(report.translation_error_rms_a.minCoeff(), 0.0);
 }
 
 // A stop request ends the evaluation; the report covers the pairs done.
