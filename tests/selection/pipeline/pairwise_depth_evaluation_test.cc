@@ -26,7 +26,7 @@ class PairwiseDepthEvaluationTest : public testing::Test {
             ("ieslam_pairwise_depth_evaluation_test_" + std::to_string(::getpid()));
     SyntheticDatasetOptions options;
     options.frames = 12;
-    options.frames_per_loop = 120;  // 3 degrees a frame
+    options.frames_per_loop = 120;  // a few degrees a frame
     options.depth_correction = {-0.02, 0.01, 0.015};
     WriteSyntheticDataset((root_ / "tilted").string(), options);
     Rig unaware = ReadCalibration((root_ / "tilted" / "calib.yaml").string());
